@@ -1,0 +1,62 @@
+// Ingest throughput on the real datasets, with PCL's own PCD loader as the
+// baseline in the same run. Run after datasets_scripts/fetch_datasets.sh:
+//   build/ingest_bench --benchmark_min_time=1
+#include "ingest/ingest.h"
+
+#include <benchmark/benchmark.h>
+#include <pcl/io/pcd_io.h>
+#include <pcl/point_types.h>
+
+#include <filesystem>
+
+namespace {
+namespace fs = std::filesystem;
+
+fs::path dataset(const char* relative) { return fs::path(APO_SOURCE_DIR) / "datasets" / relative; }
+
+void readWithApo(benchmark::State& state, const char* relative) {
+  for (auto _ : state) {
+    auto scan = apo::readScan(dataset(relative));
+    if (!scan.ok()) {
+      state.SkipWithError(scan.error().message.c_str());
+      return;
+    }
+    benchmark::DoNotOptimize(scan->points.positions.data());
+    state.counters["points"] = static_cast<double>(scan->points.size());
+  }
+}
+
+void readWithPcl(benchmark::State& state, const char* relative) {
+  for (auto _ : state) {
+    pcl::PointCloud<pcl::PointXYZI> cloud;
+    if (pcl::io::loadPCDFile(dataset(relative).string(), cloud) != 0) {
+      state.SkipWithError("PCL could not read the file");
+      return;
+    }
+    benchmark::DoNotOptimize(cloud.data());
+  }
+}
+
+void ingestWithApo(benchmark::State& state, const char* relative) {
+  for (auto _ : state) {
+    auto result = apo::ingestScan(dataset(relative), apo::IngestOptions{});
+    if (!result.ok()) {
+      state.SkipWithError(result.error().message.c_str());
+      return;
+    }
+    state.counters["points_out"] = static_cast<double>(result->report.pointsOut);
+    state.counters["normal_s"] = result->report.normalSeconds;
+  }
+}
+
+BENCHMARK_CAPTURE(readWithApo, table_scene_lms400, "pcl/table_scene_lms400.pcd")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(readWithPcl, table_scene_lms400, "pcl/table_scene_lms400.pcd")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(readWithApo, building_ply, "cgal/points_3/building.ply")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(readWithApo, bunny00_off, "cgal/meshes/bunny00.off")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(ingestWithApo, table_scene_lms400, "pcl/table_scene_lms400.pcd")->Unit(benchmark::kSecond)->Iterations(3);
+BENCHMARK_CAPTURE(ingestWithApo, kitten_xyz_mst, "cgal/points_3/kitten.xyz")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(ingestWithApo, octomap_scan, "octomap/scan.xyz")->Unit(benchmark::kSecond)->Iterations(3);
+
+}  // namespace
+
+BENCHMARK_MAIN();

@@ -1,0 +1,152 @@
+#include "core/file_io.h"
+
+#include <openssl/evp.h>
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <array>
+#include <cerrno>
+#include <cstring>
+#include <fstream>
+#include <memory>
+#include <random>
+#include <sstream>
+
+namespace apo {
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string describeErrno(int err) { return std::strerror(err); }
+
+// A temporary name in the same folder (so rename is atomic) that two
+// concurrent writers of the same file never share.
+fs::path temporaryNameFor(const fs::path& path) {
+  std::random_device device;
+  return path.parent_path() /
+         fmt::format(".{}.tmp-{}-{:08x}", path.filename().string(), ::getpid(), device());
+}
+
+Status syncFile(const fs::path& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY);
+  if (fd < 0) return internalError("{}: cannot reopen to sync: {}", path.string(), describeErrno(errno));
+  const int rc = ::fsync(fd);
+  const int err = errno;
+  ::close(fd);
+  if (rc != 0) return internalError("{}: fsync failed: {}", path.string(), describeErrno(err));
+  return okStatus();
+}
+
+class Sha256 {
+ public:
+  Sha256() : context_(EVP_MD_CTX_new(), EVP_MD_CTX_free) {
+    APO_CHECK(context_ && EVP_DigestInit_ex(context_.get(), EVP_sha256(), nullptr) == 1);
+  }
+  void update(const void* data, std::size_t size) {
+    APO_CHECK(EVP_DigestUpdate(context_.get(), data, size) == 1);
+  }
+  std::string hexDigest() {
+    std::array<unsigned char, EVP_MAX_MD_SIZE> digest{};
+    unsigned int length = 0;
+    APO_CHECK(EVP_DigestFinal_ex(context_.get(), digest.data(), &length) == 1);
+    std::string hex;
+    for (unsigned int i = 0; i < length; ++i) hex += fmt::format("{:02x}", digest[i]);
+    return hex;
+  }
+
+ private:
+  std::unique_ptr<EVP_MD_CTX, decltype(&EVP_MD_CTX_free)> context_;
+};
+
+}  // namespace
+
+Status checkReadableFile(const fs::path& path) {
+  std::error_code ec;
+  const fs::file_status status = fs::status(path, ec);
+  if (ec || !fs::exists(status)) return badInput("{}: no such file", path.string());
+  if (fs::is_directory(status)) return badInput("{}: is a directory, expected a file", path.string());
+  if (!fs::is_regular_file(status)) return badInput("{}: not a regular file", path.string());
+  if (::access(path.c_str(), R_OK) != 0)
+    return badInput("{}: cannot be read: {}", path.string(), describeErrno(errno));
+  return okStatus();
+}
+
+Result<std::string> readFileBytes(const fs::path& path) {
+  APO_RETURN_IF_ERROR(checkReadableFile(path));
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return badInput("{}: cannot be opened: {}", path.string(), describeErrno(errno));
+  std::error_code ec;
+  const auto size = fs::file_size(path, ec);
+  if (ec) return badInput("{}: cannot read its size: {}", path.string(), ec.message());
+  std::string bytes(size, '\0');
+  in.read(bytes.data(), static_cast<std::streamsize>(size));
+  if (static_cast<std::uintmax_t>(in.gcount()) != size)
+    return badInput("{}: read {} of {} bytes", path.string(), in.gcount(), size);
+  return bytes;
+}
+
+Status writeFileAtomically(const fs::path& path,
+                           const std::function<Status(std::ostream&)>& writeBody) {
+  std::error_code ec;
+  if (path.has_parent_path()) {
+    fs::create_directories(path.parent_path(), ec);
+    if (ec) return internalError("{}: cannot create folder: {}", path.parent_path().string(), ec.message());
+  }
+  const fs::path temporary = temporaryNameFor(path);
+  auto discard = [&] { fs::remove(temporary, ec); };
+  {
+    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
+    if (!out) return internalError("{}: cannot create: {}", temporary.string(), describeErrno(errno));
+    Status body = writeBody(out);
+    if (!body.ok()) {
+      out.close();
+      discard();
+      return body;
+    }
+    out.flush();
+    if (!out) {
+      discard();
+      return internalError("{}: write failed: {}", path.string(), describeErrno(errno));
+    }
+  }
+  if (Status synced = syncFile(temporary); !synced.ok()) {
+    discard();
+    return synced;
+  }
+  fs::rename(temporary, path, ec);
+  if (ec) {
+    discard();
+    return internalError("{}: cannot rename temporary file into place: {}", path.string(), ec.message());
+  }
+  return okStatus();
+}
+
+Status writeFileAtomically(const fs::path& path, std::string_view bytes) {
+  return writeFileAtomically(path, [&](std::ostream& out) {
+    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    return okStatus();
+  });
+}
+
+Result<std::string> sha256OfFile(const fs::path& path) {
+  APO_RETURN_IF_ERROR(checkReadableFile(path));
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return badInput("{}: cannot be opened: {}", path.string(), describeErrno(errno));
+  Sha256 hash;
+  std::vector<char> buffer(1 << 20);
+  while (in) {
+    in.read(buffer.data(), static_cast<std::streamsize>(buffer.size()));
+    hash.update(buffer.data(), static_cast<std::size_t>(in.gcount()));
+  }
+  if (in.bad()) return badInput("{}: read error while hashing", path.string());
+  return hash.hexDigest();
+}
+
+std::string sha256OfBytes(std::string_view bytes) {
+  Sha256 hash;
+  hash.update(bytes.data(), bytes.size());
+  return hash.hexDigest();
+}
+
+}  // namespace apo

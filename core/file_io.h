@@ -1,0 +1,37 @@
+// File input and output that never loses data: inputs are only read, outputs
+// are written to a temporary name in the destination folder and renamed over
+// the final name once complete, so a killed run leaves either the old file or
+// the new one, never a partial one.
+#pragma once
+
+#include "core/error.h"
+
+#include <filesystem>
+#include <functional>
+#include <iosfwd>
+#include <string>
+#include <string_view>
+
+namespace apo {
+
+// Reads a whole regular file. Errors (BadInput) name the path and say whether
+// it is missing, a directory, unreadable or shorter than its reported size.
+Result<std::string> readFileBytes(const std::filesystem::path& path);
+
+// Checks that `path` names a readable regular file without reading it.
+Status checkReadableFile(const std::filesystem::path& path);
+
+// Writes `path` atomically: `writeBody` fills a stream opened on a temporary
+// file beside `path`; the file is flushed, synced and renamed only if
+// `writeBody` succeeded and the stream reports no error. Parent folders are
+// created. Errors are Internal and name the path.
+Status writeFileAtomically(const std::filesystem::path& path,
+                           const std::function<Status(std::ostream&)>& writeBody);
+Status writeFileAtomically(const std::filesystem::path& path, std::string_view bytes);
+
+// Lower-case hex SHA-256 of a file's bytes, streamed (constant memory).
+Result<std::string> sha256OfFile(const std::filesystem::path& path);
+// Lower-case hex SHA-256 of a byte string.
+std::string sha256OfBytes(std::string_view bytes);
+
+}  // namespace apo

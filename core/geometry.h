@@ -1,0 +1,72 @@
+// Plain geometry types shared by every stage. No behaviour beyond trivial
+// accessors: algorithms live in the stages and take these by reference.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include <array>
+#include <cstdint>
+#include <limits>
+#include <optional>
+#include <vector>
+
+namespace apo {
+
+using Vec3f = Eigen::Vector3f;
+
+struct Rgb8 {
+  std::uint8_t r = 0, g = 0, b = 0;
+  friend bool operator==(const Rgb8&, const Rgb8&) = default;
+};
+
+// Points and their optional per-point attributes. Each attribute vector is
+// either empty (attribute absent) or exactly positions.size() long.
+struct PointSet {
+  std::vector<Vec3f> positions;
+  std::vector<Vec3f> normals;      // unit length when present
+  std::vector<Rgb8> colors;
+  std::vector<float> intensities;  // PLY confidence/intensity, PCD intensity
+
+  std::size_t size() const { return positions.size(); }
+  bool hasNormals() const { return !normals.empty(); }
+  bool hasColors() const { return !colors.empty(); }
+  bool hasIntensities() const { return !intensities.empty(); }
+};
+
+// Indices into PointSet::positions, counter-clockwise seen from outside.
+using Triangle = std::array<std::uint32_t, 3>;
+
+// Sensor pose recorded by the file (PCD VIEWPOINT): origin and orientation
+// quaternion (w, x, y, z). Used to orient estimated normals towards the sensor.
+struct Viewpoint {
+  Vec3f origin = Vec3f::Zero();
+  std::array<float, 4> orientationWxyz = {1, 0, 0, 0};
+};
+
+// What ingest reads and every later stage starts from: a point cloud when
+// `triangles` is empty, a triangle mesh over `points` otherwise.
+struct Scan {
+  PointSet points;
+  std::vector<Triangle> triangles;
+  std::optional<Viewpoint> viewpoint;
+
+  bool isMesh() const { return !triangles.empty(); }
+};
+
+struct Aabb {
+  Vec3f min = Vec3f::Constant(std::numeric_limits<float>::infinity());
+  Vec3f max = Vec3f::Constant(-std::numeric_limits<float>::infinity());
+
+  bool empty() const { return (min.array() > max.array()).any(); }
+  void extend(const Vec3f& p) {
+    min = min.cwiseMin(p);
+    max = max.cwiseMax(p);
+  }
+  Vec3f extent() const { return max - min; }
+  float diagonal() const { return empty() ? 0.0f : extent().norm(); }
+};
+
+Aabb boundingBox(const std::vector<Vec3f>& positions);
+
+}  // namespace apo

@@ -1,0 +1,199 @@
+#include "ingest/cleaning.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+namespace apo::cleaning {
+namespace {
+
+template <class T>
+void compact(std::vector<T>& values, const std::vector<char>& keep) {
+  if (values.empty()) return;
+  std::size_t out = 0;
+  for (std::size_t i = 0; i < values.size(); ++i)
+    if (keep[i]) values[out++] = values[i];
+  values.resize(out);
+}
+
+// Rewrites triangle indices through `newIndex` and drops triangles that use
+// a vertex mapped to kRemoved.
+constexpr std::uint32_t kRemoved = ~0u;
+void remapTriangles(std::vector<Triangle>& triangles, const std::vector<std::uint32_t>& newIndex) {
+  std::size_t out = 0;
+  for (const Triangle& t : triangles) {
+    const Triangle mapped = {newIndex[t[0]], newIndex[t[1]], newIndex[t[2]]};
+    if (mapped[0] != kRemoved && mapped[1] != kRemoved && mapped[2] != kRemoved) triangles[out++] = mapped;
+  }
+  triangles.resize(out);
+}
+
+template <class Predicate>
+std::size_t dropTrianglesIf(std::vector<Triangle>& triangles, Predicate isBad) {
+  const std::size_t before = triangles.size();
+  triangles.erase(std::remove_if(triangles.begin(), triangles.end(), isBad), triangles.end());
+  return before - triangles.size();
+}
+
+}  // namespace
+
+std::size_t keepPoints(Scan& scan, const std::vector<char>& keep) {
+  PointSet& points = scan.points;
+  std::vector<std::uint32_t> newIndex(points.size(), kRemoved);
+  std::uint32_t next = 0;
+  for (std::size_t i = 0; i < points.size(); ++i)
+    if (keep[i]) newIndex[i] = next++;
+  const std::size_t removed = points.size() - next;
+  if (removed == 0) return 0;
+  compact(points.positions, keep);
+  compact(points.normals, keep);
+  compact(points.colors, keep);
+  compact(points.intensities, keep);
+  remapTriangles(scan.triangles, newIndex);
+  return removed;
+}
+
+std::size_t dropNonFinitePoints(Scan& scan) {
+  std::vector<char> keep(scan.points.size());
+  for (std::size_t i = 0; i < keep.size(); ++i) keep[i] = scan.points.positions[i].allFinite();
+  return keepPoints(scan, keep);
+}
+
+std::size_t mergeDuplicatePoints(Scan& scan) {
+  const auto& positions = scan.points.positions;
+  // Sort indices by position (then index, so the earliest point of a run of
+  // equal positions comes first and the result does not depend on the sort).
+  std::vector<std::uint32_t> order(positions.size());
+  std::iota(order.begin(), order.end(), 0u);
+  auto lessPosition = [&](std::uint32_t a, std::uint32_t b) {
+    const Vec3f& p = positions[a];
+    const Vec3f& q = positions[b];
+    if (p.x() != q.x()) return p.x() < q.x();
+    if (p.y() != q.y()) return p.y() < q.y();
+    if (p.z() != q.z()) return p.z() < q.z();
+    return a < b;
+  };
+  std::sort(order.begin(), order.end(), lessPosition);
+
+  std::vector<std::uint32_t> representative(positions.size());
+  std::vector<char> keep(positions.size(), 1);
+  for (std::size_t i = 0; i < order.size();) {
+    std::size_t j = i + 1;
+    while (j < order.size() && positions[order[j]] == positions[order[i]]) ++j;
+    for (std::size_t r = i; r < j; ++r) {
+      representative[order[r]] = order[i];
+      if (r > i) keep[order[r]] = 0;
+    }
+    i = j;
+  }
+  for (Triangle& t : scan.triangles)
+    for (auto& v : t) v = representative[v];
+  return keepPoints(scan, keep);
+}
+
+std::size_t dropDegenerateTriangles(Scan& scan) {
+  const auto& p = scan.points.positions;
+  return dropTrianglesIf(scan.triangles, [&](const Triangle& t) {
+    if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) return true;
+    return (p[t[1]] - p[t[0]]).cross(p[t[2]] - p[t[0]]).squaredNorm() == 0.0f;
+  });
+}
+
+std::size_t dropDuplicateTriangles(Scan& scan) {
+  auto& triangles = scan.triangles;
+  auto sortedKey = [](Triangle t) {
+    std::sort(t.begin(), t.end());
+    return t;
+  };
+  std::vector<std::uint32_t> order(triangles.size());
+  std::iota(order.begin(), order.end(), 0u);
+  std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
+    const Triangle ka = sortedKey(triangles[a]), kb = sortedKey(triangles[b]);
+    return ka != kb ? ka < kb : a < b;
+  });
+  std::vector<char> keep(triangles.size(), 1);
+  for (std::size_t i = 1; i < order.size(); ++i)
+    if (sortedKey(triangles[order[i]]) == sortedKey(triangles[order[i - 1]])) keep[order[i]] = 0;
+  const std::size_t before = triangles.size();
+  compact(triangles, keep);
+  return before - triangles.size();
+}
+
+std::size_t dropUnreferencedVertices(Scan& scan) {
+  std::vector<char> used(scan.points.size(), 0);
+  for (const Triangle& t : scan.triangles)
+    for (auto v : t) used[v] = 1;
+  return keepPoints(scan, used);
+}
+
+std::size_t normaliseNormals(PointSet& points) {
+  std::size_t invalid = 0;
+  for (Vec3f& n : points.normals) {
+    const float length = n.norm();
+    if (!std::isfinite(length) || length == 0.0f) {
+      ++invalid;
+      continue;
+    }
+    n /= length;
+  }
+  return invalid;
+}
+
+std::vector<Vec3f> vertexNormalsFromTriangles(const Scan& mesh) {
+  const auto& p = mesh.points.positions;
+  std::vector<Vec3f> normals(p.size(), Vec3f::Zero());
+  for (const Triangle& t : mesh.triangles) {
+    // The cross product's length is twice the area: area weighting for free.
+    const Vec3f areaNormal = (p[t[1]] - p[t[0]]).cross(p[t[2]] - p[t[0]]);
+    for (auto v : t) normals[v] += areaNormal;
+  }
+  for (Vec3f& n : normals) {
+    const float length = n.norm();
+    n = length > 0.0f ? Vec3f(n / length) : Vec3f::UnitZ();
+  }
+  return normals;
+}
+
+}  // namespace apo::cleaning
+
+namespace apo::cleaning {
+
+std::vector<char> voxelRepresentativeMask(const std::vector<Vec3f>& positions, double voxelSize) {
+  const Aabb box = boundingBox(positions);
+  using VoxelKey = std::array<std::int64_t, 3>;
+  auto voxelOf = [&](const Vec3f& p) {
+    const Eigen::Vector3d cell = ((p - box.min).cast<double>() / voxelSize).array().floor();
+    return VoxelKey{static_cast<std::int64_t>(cell.x()), static_cast<std::int64_t>(cell.y()),
+                    static_cast<std::int64_t>(cell.z())};
+  };
+  std::vector<VoxelKey> keys(positions.size());
+  for (std::size_t i = 0; i < positions.size(); ++i) keys[i] = voxelOf(positions[i]);
+  std::vector<std::uint32_t> order(positions.size());
+  std::iota(order.begin(), order.end(), 0u);
+  std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
+    return keys[a] != keys[b] ? keys[a] < keys[b] : a < b;
+  });
+
+  std::vector<char> keep(positions.size(), 0);
+  for (std::size_t begin = 0; begin < order.size();) {
+    std::size_t end = begin + 1;
+    while (end < order.size() && keys[order[end]] == keys[order[begin]]) ++end;
+    Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+    for (std::size_t r = begin; r < end; ++r) centroid += positions[order[r]].cast<double>();
+    centroid /= static_cast<double>(end - begin);
+    std::uint32_t closest = order[begin];
+    double closestDistance = (positions[closest].cast<double>() - centroid).squaredNorm();
+    for (std::size_t r = begin + 1; r < end; ++r) {
+      const double distance = (positions[order[r]].cast<double>() - centroid).squaredNorm();
+      if (distance < closestDistance) {
+        closest = order[r];
+        closestDistance = distance;
+      }
+    }
+    keep[closest] = 1;
+    begin = end;
+  }
+  return keep;
+}
+
+}  // namespace apo::cleaning

@@ -1,0 +1,208 @@
+// The ingest pipeline: read, validate, clean, normals; and its report.
+#include "ingest/ingest.h"
+
+#include "core/file_io.h"
+#include "core/timing.h"
+#include "ingest/cleaning.h"
+#include "ingest/normals.h"
+#include "ingest/pcl_adapter.h"
+
+#include <nlohmann/json.hpp>
+#include <spdlog/spdlog.h>
+
+#include <cmath>
+
+namespace apo {
+namespace fs = std::filesystem;
+
+namespace {
+
+// Points needed to fit a plane with neighbours to spare.
+constexpr std::size_t kMinPointsForNormals = 4;
+
+Status validateOptions(const IngestOptions& options) {
+  if (options.outlierNeighbours < 1) return usageError("--outlier-k must be at least 1, got {}", options.outlierNeighbours);
+  if (!(options.outlierStdDevs > 0.0)) return usageError("--outlier-std must be positive, got {}", options.outlierStdDevs);
+  if (!(options.voxelSize >= 0.0) || !std::isfinite(options.voxelSize))
+    return usageError("--voxel must be a finite size >= 0, got {}", options.voxelSize);
+  if (options.normalNeighbours < 0 || options.normalNeighbours == 1 || options.normalNeighbours == 2)
+    return usageError("--normal-k must be 0 (automatic) or at least 3, got {}", options.normalNeighbours);
+  return okStatus();
+}
+
+// Runs one cleaning step, timing it and recording what it removed.
+template <class Step>
+void runStep(IngestReport& report, const char* name, Step&& step) {
+  Stopwatch watch;
+  const std::size_t removed = step();
+  report.steps.push_back({name, removed, watch.seconds()});
+  if (removed > 0) spdlog::info("ingest: {} removed {}", name, removed);
+}
+
+void cleanMesh(Scan& scan, const IngestOptions& options, IngestReport& report) {
+  if (options.mergeDuplicates) runStep(report, "merge_duplicate_vertices", [&] { return cleaning::mergeDuplicatePoints(scan); });
+  runStep(report, "drop_degenerate_triangles", [&] { return cleaning::dropDegenerateTriangles(scan); });
+  runStep(report, "drop_duplicate_triangles", [&] { return cleaning::dropDuplicateTriangles(scan); });
+  runStep(report, "drop_unreferenced_vertices", [&] { return cleaning::dropUnreferencedVertices(scan); });
+}
+
+void meshNormals(Scan& scan, IngestReport& report) {
+  const bool usable = scan.points.hasNormals() && cleaning::normaliseNormals(scan.points) == 0;
+  if (usable) {
+    report.normalsSource = "read";
+    report.normalOrientation = "file";
+    return;
+  }
+  scan.points.normals = cleaning::vertexNormalsFromTriangles(scan);
+  report.normalsSource = "computed_from_faces";
+  report.normalOrientation = "faces";
+}
+
+Status cleanPointCloud(Scan& scan, const IngestOptions& options, IngestReport& report, const fs::path& path) {
+  if (options.mergeDuplicates) runStep(report, "merge_duplicate_points", [&] { return cleaning::mergeDuplicatePoints(scan); });
+  if (options.removeOutliers) {
+    if (scan.points.size() <= static_cast<std::size_t>(options.outlierNeighbours))
+      return badInput("{}: {} points are too few for outlier removal with k = {}", path.string(), scan.points.size(),
+                      options.outlierNeighbours);
+    runStep(report, "remove_statistical_outliers", [&] {
+      return cleaning::keepPoints(scan, pcl_adapter::statisticalOutlierKeepMask(scan.points.positions,
+                                                                              options.outlierNeighbours,
+                                                                              options.outlierStdDevs));
+    });
+  }
+  if (options.voxelSize > 0.0)
+    runStep(report, "voxel_downsample", [&] {
+      return cleaning::keepPoints(scan, cleaning::voxelRepresentativeMask(scan.points.positions, options.voxelSize));
+    });
+  return okStatus();
+}
+
+Status pointCloudNormals(Scan& scan, const IngestOptions& options, IngestReport& report, const fs::path& path) {
+  const bool haveUsable = scan.points.hasNormals() && cleaning::normaliseNormals(scan.points) == 0;
+  if (haveUsable && !options.forceNormalEstimation) {
+    report.normalsSource = "read";
+    report.normalOrientation = "file";
+    return okStatus();
+  }
+  if (!options.estimateNormals) {
+    if (scan.points.hasNormals())
+      return badInput("{}: some normals are zero or not finite and normal estimation is off", path.string());
+    report.normalsSource = "none";
+    return okStatus();
+  }
+  if (scan.points.size() < kMinPointsForNormals)
+    return badInput("{}: {} points are too few to estimate normals (need at least {})", path.string(),
+                    scan.points.size(), kMinPointsForNormals);
+
+  Stopwatch watch;
+  auto estimated = normals::estimateOrientedNormals(scan.points.positions, scan.viewpoint, options.normalNeighbours);
+  scan.points.normals = std::move(estimated.normals);
+  report.normalSeconds = watch.seconds();
+  report.normalsSource = "estimated";
+  report.normalOrientation = estimated.orientation;
+  report.normalNeighbours = estimated.neighbours;
+  spdlog::info("ingest: normals estimated with k = {}, oriented by {} in {:.2f} s", estimated.neighbours,
+               estimated.orientation, report.normalSeconds);
+  if (estimated.unoriented > 0)
+    spdlog::warn("ingest: {} points unreachable by the MST were oriented away from the centroid", estimated.unoriented);
+
+  runStep(report, "drop_points_without_normal", [&] {
+    std::vector<char> keep(scan.points.size());
+    for (std::size_t i = 0; i < keep.size(); ++i) keep[i] = scan.points.normals[i].allFinite();
+    return cleaning::keepPoints(scan, keep);
+  });
+  return okStatus();
+}
+
+nlohmann::ordered_json vectorJson(const Vec3f& v) { return {v.x(), v.y(), v.z()}; }
+
+}  // namespace
+
+Result<IngestResult> ingestScan(const fs::path& path, const IngestOptions& options) {
+  APO_RETURN_IF_ERROR(validateOptions(options));
+  Stopwatch total;
+  IngestResult result;
+  IngestReport& report = result.report;
+  Scan& scan = result.scan;
+  report.inputPath = path.string();
+
+  auto format = formatFromExtension(path);
+  if (!format) return format.error();
+  report.format = formatName(*format);
+
+  Stopwatch readWatch;
+  auto read = readScan(path, *format);
+  if (!read) return read.error();
+  scan = std::move(read).value();
+  report.readSeconds = readWatch.seconds();
+
+  auto sha = sha256OfFile(path);
+  if (!sha) return sha.error();
+  report.inputSha256 = *sha;
+
+  report.isMesh = scan.isMesh();
+  report.pointsIn = scan.points.size();
+  report.trianglesIn = scan.triangles.size();
+  spdlog::info("ingest: read {} points, {} triangles from {} ({}) in {:.2f} s", report.pointsIn, report.trianglesIn,
+               path.string(), report.format, report.readSeconds);
+  if (scan.points.size() == 0) return badInput("{}: contains no points", path.string());
+
+  runStep(report, "drop_non_finite", [&] { return cleaning::dropNonFinitePoints(scan); });
+  if (scan.points.size() == 0)
+    return badInput("{}: all {} points have non-finite coordinates", path.string(), report.pointsIn);
+
+  if (report.isMesh) {
+    cleanMesh(scan, options, report);
+    if (!scan.isMesh())
+      return badInput("{}: no valid triangle remains after cleaning ({} read)", path.string(), report.trianglesIn);
+    meshNormals(scan, report);
+  } else {
+    APO_RETURN_IF_ERROR(cleanPointCloud(scan, options, report, path));
+    APO_RETURN_IF_ERROR(pointCloudNormals(scan, options, report, path));
+    if (scan.points.size() == 0) return badInput("{}: no point remains after cleaning", path.string());
+  }
+
+  report.pointsOut = scan.points.size();
+  report.trianglesOut = scan.triangles.size();
+  report.boundingBox = boundingBox(scan.points.positions);
+  report.hasViewpoint = scan.viewpoint.has_value();
+  if (scan.viewpoint) report.viewpoint = *scan.viewpoint;
+  report.totalSeconds = total.seconds();
+  return result;
+}
+
+std::string ingestReportJson(const IngestReport& report) {
+  nlohmann::ordered_json json;
+  json["format_version"] = 1;
+  json["input"] = {{"path", report.inputPath}, {"sha256", report.inputSha256}, {"format", report.format}};
+  json["kind"] = report.isMesh ? "mesh" : "point_cloud";
+  json["counts"] = {{"points_in", report.pointsIn},
+                    {"points_out", report.pointsOut},
+                    {"triangles_in", report.trianglesIn},
+                    {"triangles_out", report.trianglesOut}};
+  auto steps = nlohmann::ordered_json::array();
+  for (const CleaningStep& step : report.steps)
+    steps.push_back({{"name", step.name}, {"removed", step.removed}, {"seconds", step.seconds}});
+  json["cleaning"] = steps;
+  json["bounding_box"] = {{"min", vectorJson(report.boundingBox.min)},
+                          {"max", vectorJson(report.boundingBox.max)},
+                          {"diagonal", report.boundingBox.diagonal()}};
+  json["normals"] = {{"source", report.normalsSource},
+                     {"orientation", report.normalOrientation},
+                     {"neighbours", report.normalNeighbours}};
+  if (report.hasViewpoint) {
+    const auto& q = report.viewpoint.orientationWxyz;
+    json["viewpoint"] = {{"origin", vectorJson(report.viewpoint.origin)}, {"orientation_wxyz", {q[0], q[1], q[2], q[3]}}};
+  } else {
+    json["viewpoint"] = nullptr;
+  }
+  json["seconds"] = {{"read", report.readSeconds}, {"normals", report.normalSeconds}, {"total", report.totalSeconds}};
+  return json.dump(2) + "\n";
+}
+
+Status writeIngestOutputs(const fs::path& outDir, const IngestResult& result) {
+  APO_RETURN_IF_ERROR(writePly(outDir / "scan.ply", result.scan));
+  return writeFileAtomically(outDir / "ingest.json", ingestReportJson(result.report));
+}
+
+}  // namespace apo

@@ -1,0 +1,128 @@
+// ingest: reads a scan (point cloud or dense mesh) from PLY, PCD, XYZ/XYZN/PTS,
+// OFF, OBJ or STL, validates it, cleans it, and gives point clouds oriented
+// normals. Every failure on untrusted input is a BadInput Error whose message
+// names the file, the position in it (line or byte offset) and the problem.
+#pragma once
+
+#include "core/error.h"
+#include "core/geometry.h"
+#include "core/ray_caster.h"
+
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace apo {
+
+enum class ScanFormat { Ply, Pcd, Xyz, Off, Obj, Stl };
+
+// Name used in reports: "ply", "pcd", "xyz", "off", "obj", "stl".
+std::string formatName(ScanFormat format);
+
+// The format a path's extension names (case-insensitive: .ply .pcd .xyz .xyzn
+// .pts .txt .off .obj .stl); a Usage-free BadInput error for anything else.
+Result<ScanFormat> formatFromExtension(const std::filesystem::path& path);
+
+// Reads a scan as stored: non-finite coordinates are kept (cleaning counts and
+// drops them), polygons are fan-triangulated, normals are normalised only by
+// cleaning. Colors become Rgb8, PLY confidence/intensity and PCD intensity
+// become intensities.
+Result<Scan> readScan(const std::filesystem::path& path);
+Result<Scan> readScan(const std::filesystem::path& path, ScanFormat format);
+
+// Writes a binary little-endian PLY (float x y z [nx ny nz] [uchar red green
+// blue] [float intensity], uchar/int vertex_indices faces), atomically.
+Status writePly(const std::filesystem::path& path, const Scan& scan);
+// Writes an ASCII PLY with the same properties (for tests and inspection).
+Status writePlyAscii(const std::filesystem::path& path, const Scan& scan);
+
+struct IngestOptions {
+  bool mergeDuplicates = true;      // exact duplicate points / vertices merged
+  bool removeOutliers = false;      // PCL StatisticalOutlierRemoval
+  int outlierNeighbours = 16;       // k of the outlier statistics
+  double outlierStdDevs = 2.0;      // keep points within mean + this * stddev
+  double voxelSize = 0.0;           // > 0: PCL VoxelGrid downsampling (point clouds)
+  bool estimateNormals = true;      // for point clouds that have none
+  int normalNeighbours = 0;         // 0: chosen from the data (see docs/ingest.md)
+  bool forceNormalEstimation = false;  // re-estimate even if the file has normals
+};
+
+// What happened to the scan, step by step, for ingest.json.
+struct CleaningStep {
+  std::string name;          // "drop_non_finite", "merge_duplicates", ...
+  std::uint64_t removed = 0; // points (or faces, for face steps) removed
+  double seconds = 0.0;
+};
+
+struct IngestReport {
+  std::string inputPath;
+  std::string inputSha256;
+  std::string format;
+  bool isMesh = false;
+  std::uint64_t pointsIn = 0, pointsOut = 0;
+  std::uint64_t trianglesIn = 0, trianglesOut = 0;
+  std::vector<CleaningStep> steps;
+  Aabb boundingBox;
+  std::string normalsSource;      // "read", "estimated", "computed_from_faces"
+  std::string normalOrientation;  // "viewpoint", "mst", "file", "faces"
+  int normalNeighbours = 0;       // k used when estimated
+  bool hasViewpoint = false;
+  Viewpoint viewpoint;
+  double readSeconds = 0.0;
+  double normalSeconds = 0.0;
+  double totalSeconds = 0.0;
+};
+
+struct IngestResult {
+  Scan scan;
+  IngestReport report;
+};
+
+// Reads, validates and cleans `path`, and estimates and orients normals when
+// the scan is a point cloud without them. Fails with BadInput when the file is
+// malformed or nothing remains after cleaning.
+Result<IngestResult> ingestScan(const std::filesystem::path& path, const IngestOptions& options);
+
+// ingest.json text (pretty-printed, stable key order) for a report.
+std::string ingestReportJson(const IngestReport& report);
+
+// Writes `scan.ply` and `ingest.json` into `outDir`, atomically.
+Status writeIngestOutputs(const std::filesystem::path& outDir, const IngestResult& result);
+
+}  // namespace apo
+
+// ---------------------------------------------------------------------------
+// Virtual range scanner (`apo simulate-scan`): makes scans of meshes with
+// known ground truth for the tests of every stage.
+
+namespace apo {
+
+// Embree BVH over a triangle mesh. Error (Internal) if Embree fails.
+Result<std::unique_ptr<RayCaster>> makeEmbreeMeshCaster(const Scan& mesh);
+
+struct SimulateScanOptions {
+  int views = 8;                   // scanner positions on a sphere around the mesh
+  int raysPerSide = 200;           // each view casts raysPerSide^2 rays
+  double rangeNoise = 0.0005;      // std-dev of range noise, fraction of the bbox diagonal
+  double misregistration = 0.0002; // per-view rigid offset, fraction of the diagonal (and radians)
+  std::uint64_t seed = 1;
+  bool withNormals = false;        // also write the true surface normals of the hits
+};
+
+struct SimulatedScan {
+  Scan scan;                       // points (and normals when asked)
+  std::vector<Vec3f> viewOrigins;  // scanner positions, one per view
+  std::vector<std::uint32_t> pointsPerView;
+};
+
+// Places `views` scanners on a Fibonacci sphere at twice the radius of the
+// mesh's bounding sphere (about its box centre),
+// casts a square grid of rays from each towards the mesh, keeps the hits,
+// perturbs each range by Gaussian noise and each view by a small rigid motion.
+// Deterministic for given options.
+Result<SimulatedScan> simulateScan(const Scan& mesh, const SimulateScanOptions& options);
+
+}  // namespace apo

@@ -1,0 +1,36 @@
+// Internal to ingest: normals for point clouds that have none.
+#pragma once
+
+#include "core/geometry.h"
+
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace apo::normals {
+
+// Neighbourhood sizes tried when k is chosen from the data.
+inline constexpr int kCandidateNeighbourCounts[] = {8, 12, 16, 24, 32, 48};
+
+// Chooses k for PCA normals from the data (docs/ingest.md): on a fixed
+// subsample, the neighbourhoods of each candidate k are fitted with a plane;
+// candidates whose neighbourhoods are mostly one-dimensional (scan lines:
+// median lambda1/lambda2 below 0.25) are refused, and among the rest the one
+// with the lowest mean surface variation lambda0/(lambda0+lambda1+lambda2)
+// wins: small k is dominated by noise, large k by curvature.
+int chooseNeighbourCount(const std::vector<Vec3f>& points);
+
+struct OrientedNormals {
+  std::vector<Vec3f> normals;   // unit, or NaN where no plane could be fitted
+  int neighbours = 0;           // k used
+  std::string orientation;      // "viewpoint" or "mst"
+  std::size_t unoriented = 0;   // points MST could not reach (flipped outwards)
+};
+
+// Estimates normals (PCL, k nearest neighbours; k = 0 chooses it) and orients
+// them towards `viewpoint` when given, else by CGAL's minimum spanning tree;
+// MST leftovers are turned away from the centroid.
+OrientedNormals estimateOrientedNormals(const std::vector<Vec3f>& points,
+                                        const std::optional<Viewpoint>& viewpoint, int k);
+
+}  // namespace apo::normals

@@ -1,0 +1,583 @@
+// PLY reader (ascii, binary_little_endian, binary_big_endian; version 1.0).
+// Our own parser rather than PCL's: PCL's loader silently returns zeros for
+// double-precision coordinates (../shared/STACK.md, pitfall 2).
+//
+// The header is parsed into elements and properties, then the body is read
+// element by element in header order by one generic routine per element kind
+// (vertex, face, anything else skipped), over either an ascii or a binary body
+// source. Every count the header or a list claims is checked against the bytes
+// that remain before anything is allocated for it.
+#include "core/error.h"
+#include "ingest/parse_util.h"
+#include "ingest/readers.h"
+
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <initializer_list>
+#include <limits>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace apo::readers {
+namespace {
+
+using parse::fail;
+
+enum class Encoding { Ascii, BinaryLittleEndian, BinaryBigEndian };
+
+enum class ScalarType : std::uint8_t { Int8, UInt8, Int16, UInt16, Int32, UInt32, Float32, Float64 };
+
+std::optional<ScalarType> scalarTypeNamed(std::string_view name) {
+  struct Named {
+    std::string_view name;
+    ScalarType type;
+  };
+  static constexpr Named kTypes[] = {
+      {"char", ScalarType::Int8},     {"int8", ScalarType::Int8},       {"uchar", ScalarType::UInt8},
+      {"uint8", ScalarType::UInt8},   {"short", ScalarType::Int16},     {"int16", ScalarType::Int16},
+      {"ushort", ScalarType::UInt16}, {"uint16", ScalarType::UInt16},   {"int", ScalarType::Int32},
+      {"int32", ScalarType::Int32},   {"uint", ScalarType::UInt32},     {"uint32", ScalarType::UInt32},
+      {"float", ScalarType::Float32}, {"float32", ScalarType::Float32}, {"double", ScalarType::Float64},
+      {"float64", ScalarType::Float64},
+  };
+  for (const Named& named : kTypes)
+    if (named.name == name) return named.type;
+  return std::nullopt;
+}
+
+std::size_t byteSize(ScalarType type) {
+  switch (type) {
+    case ScalarType::Int8:
+    case ScalarType::UInt8: return 1;
+    case ScalarType::Int16:
+    case ScalarType::UInt16: return 2;
+    case ScalarType::Int32:
+    case ScalarType::UInt32:
+    case ScalarType::Float32: return 4;
+    case ScalarType::Float64: return 8;
+  }
+  APO_CHECK(!"unhandled ScalarType");
+  return 0;
+}
+
+bool isFloating(ScalarType type) { return type == ScalarType::Float32 || type == ScalarType::Float64; }
+
+struct Property {
+  std::string name;
+  ScalarType type = ScalarType::Float32;  // of the value, or of each item of a list
+  std::optional<ScalarType> listCountType;  // set for list properties only
+  bool isList() const { return listCountType.has_value(); }
+};
+
+struct Element {
+  std::string name;
+  std::uint64_t count = 0;
+  std::vector<Property> properties;
+  std::size_t line = 0;  // header line declaring it, for messages
+};
+
+struct Header {
+  Encoding encoding = Encoding::Ascii;
+  std::vector<Element> elements;
+  std::size_t endLine = 0;  // line of end_header
+  // Positioned just after end_header: the ascii body continues from it, the
+  // binary body starts at its offset.
+  parse::TextCursor afterHeader{std::string_view{}};
+};
+
+// "vertices", "faces", "edges": element counts in messages.
+std::string plural(const std::string& elementName) {
+  return elementName == "vertex" ? "vertices" : elementName + "s";
+}
+
+// --- Header -----------------------------------------------------------------
+
+void checkMagic(parse::TextCursor& cursor) {
+  std::string_view line;
+  cursor.next(line);
+  std::vector<std::string_view> tokens;
+  parse::splitWhitespace(line, tokens);
+  if (tokens.size() != 1 || tokens[0] != "ply")
+    fail("byte 0: wrong magic: expected 'ply', got {}", parse::quoted(line));
+}
+
+Encoding parseFormatLine(const std::vector<std::string_view>& tokens, std::size_t line) {
+  if (tokens.size() != 3) fail("line {}: malformed format line, expected 'format ENCODING 1.0'", line);
+  double version = 0;
+  if (!parse::parseNumber(tokens[2], version) || version != 1.0)
+    fail("line {}: unsupported PLY version {} (only 1.0 is defined)", line, parse::quoted(tokens[2]));
+  if (tokens[1] == "ascii") return Encoding::Ascii;
+  if (tokens[1] == "binary_little_endian") return Encoding::BinaryLittleEndian;
+  if (tokens[1] == "binary_big_endian") return Encoding::BinaryBigEndian;
+  fail("line {}: unknown format {} (expected ascii, binary_little_endian or binary_big_endian)", line,
+       parse::quoted(tokens[1]));
+}
+
+Element parseElementLine(const std::vector<std::string_view>& tokens, std::size_t line) {
+  if (tokens.size() != 3) fail("line {}: malformed element line, expected 'element NAME COUNT'", line);
+  std::int64_t count = 0;
+  if (!parse::parseInteger(tokens[2], count))
+    fail("line {}: count {} of element '{}' is not an integer", line, parse::quoted(tokens[2]), tokens[1]);
+  if (count < 0) fail("line {}: negative count {} for element '{}'", line, count, tokens[1]);
+  return {std::string(tokens[1]), static_cast<std::uint64_t>(count), {}, line};
+}
+
+ScalarType parseScalarType(std::string_view token, std::size_t line) {
+  const std::optional<ScalarType> type = scalarTypeNamed(token);
+  if (!type) fail("line {}: unknown property type {}", line, parse::quoted(token));
+  return *type;
+}
+
+Property parsePropertyLine(const std::vector<std::string_view>& tokens, std::size_t line) {
+  if (tokens.size() == 5 && tokens[1] == "list") {
+    const ScalarType countType = parseScalarType(tokens[2], line);
+    if (isFloating(countType))
+      fail("line {}: list count type {} is not an integer type", line, parse::quoted(tokens[2]));
+    return {std::string(tokens[4]), parseScalarType(tokens[3], line), countType};
+  }
+  if (tokens.size() != 3 || tokens[1] == "list")
+    fail("line {}: malformed property line, expected 'property TYPE NAME' or "
+         "'property list COUNTTYPE ITEMTYPE NAME'",
+         line);
+  return {std::string(tokens[2]), parseScalarType(tokens[1], line), std::nullopt};
+}
+
+Header parseHeader(std::string_view bytes) {
+  if (bytes.empty()) fail("empty file");
+  Header header;
+  parse::TextCursor cursor(bytes);
+  checkMagic(cursor);
+  bool sawFormat = false;
+  std::string_view line;
+  std::vector<std::string_view> tokens;
+  while (cursor.next(line)) {
+    parse::splitWhitespace(line, tokens);
+    if (tokens.empty()) continue;
+    const std::string_view keyword = tokens[0];
+    const std::size_t lineNumber = cursor.lineNumber();
+    if (keyword == "end_header") {
+      if (!sawFormat) fail("line {}: header has no format line", lineNumber);
+      header.endLine = lineNumber;
+      header.afterHeader = cursor;
+      return header;
+    }
+    if (keyword == "format") {
+      header.encoding = parseFormatLine(tokens, lineNumber);
+      sawFormat = true;
+    } else if (keyword == "element") {
+      header.elements.push_back(parseElementLine(tokens, lineNumber));
+    } else if (keyword == "property") {
+      if (header.elements.empty()) fail("line {}: property declared before any element", lineNumber);
+      header.elements.back().properties.push_back(parsePropertyLine(tokens, lineNumber));
+    }
+    // comment, obj_info and unknown lines carry nothing we use.
+  }
+  fail("line {}: header has no end_header line", cursor.lineNumber());
+}
+
+// --- What to keep from the vertex and face elements --------------------------
+
+const Element* findUniqueElement(const Header& header, std::string_view name) {
+  const Element* found = nullptr;
+  for (const Element& element : header.elements) {
+    if (element.name != name) continue;
+    if (found) fail("line {}: second '{}' element (first on line {})", element.line, name, found->line);
+    found = &element;
+  }
+  return found;
+}
+
+// Index of the first scalar property with one of `names`, in declaration order.
+std::optional<std::size_t> findScalar(const Element& element, std::initializer_list<std::string_view> names) {
+  for (std::size_t i = 0; i < element.properties.size(); ++i) {
+    const Property& property = element.properties[i];
+    if (property.isList()) continue;
+    for (std::string_view name : names)
+      if (property.name == name) return i;
+  }
+  return std::nullopt;
+}
+
+// Where each vertex property's value goes.
+enum VertexSlot : std::uint8_t { kX, kY, kZ, kNx, kNy, kNz, kRed, kGreen, kBlue, kIntensity, kSlotCount };
+constexpr std::uint8_t kSkip = kSlotCount;
+
+struct VertexPlan {
+  const Element* element = nullptr;
+  std::vector<std::uint8_t> slotOfProperty;  // a VertexSlot, or kSkip
+  bool normals = false, colors = false, intensities = false;
+  std::array<ScalarType, 3> colorTypes{};  // red, green, blue: decide scaling
+};
+
+VertexPlan planVertices(const Header& header) {
+  VertexPlan plan;
+  plan.element = findUniqueElement(header, "vertex");
+  if (!plan.element) fail("line {}: header declares no vertex element", header.endLine);
+  const Element& element = *plan.element;
+  if (element.count > std::numeric_limits<std::uint32_t>::max())
+    fail("line {}: {} vertices are more than 32-bit face indices can address", element.line, element.count);
+  plan.slotOfProperty.assign(element.properties.size(), kSkip);
+
+  for (auto [slot, name] : {std::pair{kX, "x"}, std::pair{kY, "y"}, std::pair{kZ, "z"}}) {
+    const auto index = findScalar(element, {name});
+    if (!index) fail("line {}: element vertex has no scalar property '{}'", element.line, name);
+    plan.slotOfProperty[*index] = slot;
+  }
+
+  // Normals and colors are kept only when all three components are present.
+  const auto nx = findScalar(element, {"nx"}), ny = findScalar(element, {"ny"}), nz = findScalar(element, {"nz"});
+  if (nx && ny && nz) {
+    plan.normals = true;
+    plan.slotOfProperty[*nx] = kNx;
+    plan.slotOfProperty[*ny] = kNy;
+    plan.slotOfProperty[*nz] = kNz;
+  }
+  const auto red = findScalar(element, {"red", "diffuse_red"});
+  const auto green = findScalar(element, {"green", "diffuse_green"});
+  const auto blue = findScalar(element, {"blue", "diffuse_blue"});
+  if (red && green && blue) {
+    plan.colors = true;
+    plan.slotOfProperty[*red] = kRed;
+    plan.slotOfProperty[*green] = kGreen;
+    plan.slotOfProperty[*blue] = kBlue;
+    plan.colorTypes = {element.properties[*red].type, element.properties[*green].type,
+                       element.properties[*blue].type};
+  }
+  if (const auto intensity = findScalar(element, {"confidence", "intensity", "scalar_intensity"})) {
+    plan.intensities = true;
+    plan.slotOfProperty[*intensity] = kIntensity;
+  }
+  return plan;
+}
+
+struct FacePlan {
+  const Element* element = nullptr;  // null when the scan is a point cloud
+  std::size_t indexProperty = 0;
+};
+
+FacePlan planFaces(const Header& header) {
+  FacePlan plan;
+  plan.element = findUniqueElement(header, "face");
+  if (!plan.element) return plan;
+  const std::vector<Property>& properties = plan.element->properties;
+  for (std::size_t i = 0; i < properties.size(); ++i) {
+    if (properties[i].name != "vertex_indices" && properties[i].name != "vertex_index") continue;
+    if (!properties[i].isList())
+      fail("line {}: face property '{}' is not a list", plan.element->line, properties[i].name);
+    plan.indexProperty = i;
+    return plan;
+  }
+  fail("line {}: element face has no 'vertex_indices' list", plan.element->line);
+}
+
+// --- Body sources ------------------------------------------------------------
+// Both offer the same operations, so that the element readers below are
+// written once: beginElement (checks the count against what remains),
+// beginRecord, number, listCount, skipListItems, endRecord, finish, and
+// position() ("line N" / "byte N") for messages.
+
+class AsciiBody {
+ public:
+  AsciiBody(parse::TextCursor cursor, std::size_t totalBytes) : cursor_(cursor), totalBytes_(totalBytes) {}
+
+  void beginElement(const Element& element) {
+    element_ = &element;
+    // Each element needs at least one digit and a separator (the last value
+    // of the file may lack the separator).
+    const std::size_t remaining = totalBytes_ - cursor_.offset();
+    if (element.count > (remaining + 1) / 2)
+      fail("line {}: header claims {} {} but only {} bytes remain in the file", element.line, element.count,
+           plural(element.name), remaining);
+  }
+
+  // One element per line; blank lines are tolerated.
+  void beginRecord(std::uint64_t index) {
+    index_ = index;
+    std::string_view line;
+    do {
+      if (!cursor_.next(line))
+        fail("line {}: file ends after {} of {} {}", cursor_.lineNumber(), index, element_->count,
+             plural(element_->name));
+      parse::splitWhitespace(line, tokens_);
+    } while (tokens_.empty());
+    nextToken_ = 0;
+  }
+
+  double number(const Property& property) {
+    const std::string_view token = takeToken(property);
+    // A float property's text denotes a float: parsing it as one avoids
+    // rounding twice (decimal to double to float).
+    if (property.type == ScalarType::Float32) {
+      float value = 0;
+      if (parse::parseNumber(token, value)) return value;
+    } else {
+      double value = 0;
+      if (parse::parseNumber(token, value)) return value;
+    }
+    return cursor_.number(token, recordName());  // fails, naming line and token
+  }
+
+  std::uint64_t listCount(const Property& property) {
+    const std::string_view token = takeToken(property);
+    std::int64_t count = 0;
+    if (!parse::parseInteger(token, count)) count = cursor_.integer(token, recordName());
+    if (count < 0) fail("{}: {} has negative list count {} for '{}'", position(), recordName(), count, property.name);
+    const std::size_t left = tokens_.size() - nextToken_;
+    if (static_cast<std::uint64_t>(count) > left)
+      fail("{}: {} lists {} values for '{}' but the line holds only {} more", position(), recordName(), count,
+           property.name, left);
+    return static_cast<std::uint64_t>(count);
+  }
+
+  // Skipped values are still parsed: a non-numeric token is a malformed line.
+  void skipListItems(const Property& property, std::uint64_t count) {
+    for (std::uint64_t i = 0; i < count; ++i) number(property);
+  }
+
+  void endRecord() const {
+    if (nextToken_ != tokens_.size())
+      fail("{}: {} has {} more values than its {} properties declare, starting at {}", position(), recordName(),
+           tokens_.size() - nextToken_, element_->name, parse::quoted(tokens_[nextToken_]));
+  }
+
+  // Data after the last element means the header counts are wrong.
+  void finish() {
+    std::string_view line;
+    while (cursor_.next(line)) {
+      parse::splitWhitespace(line, tokens_);
+      if (!tokens_.empty())
+        fail("line {}: unexpected data after the last element: {}", cursor_.lineNumber(), parse::quoted(line));
+    }
+  }
+
+  std::string position() const { return fmt::format("line {}", cursor_.lineNumber()); }
+
+ private:
+  std::string recordName() const { return fmt::format("{} {}", element_->name, index_); }
+
+  std::string_view takeToken(const Property& property) {
+    if (nextToken_ >= tokens_.size())
+      fail("{}: {} has no value for property '{}'", position(), recordName(), property.name);
+    return tokens_[nextToken_++];
+  }
+
+  parse::TextCursor cursor_;
+  const std::size_t totalBytes_;
+  const Element* element_ = nullptr;
+  std::uint64_t index_ = 0;
+  std::vector<std::string_view> tokens_;
+  std::size_t nextToken_ = 0;
+};
+
+// Fewest bytes one element can take in a binary body (empty lists).
+std::uint64_t minimumBytes(const Element& element) {
+  std::uint64_t bytes = 0;
+  for (const Property& property : element.properties)
+    bytes += byteSize(property.isList() ? *property.listCountType : property.type);
+  return bytes;
+}
+
+class BinaryBody {
+ public:
+  BinaryBody(std::string_view bytes, std::size_t offset, bool bigEndian)
+      : cursor_(bytes, offset), bigEndian_(bigEndian) {}
+
+  void beginElement(const Element& element) {
+    element_ = &element;
+    what_ = fmt::format("{} data", element.name);
+    parse::checkCountFits(element.count, minimumBytes(element), cursor_.remaining(), plural(element.name),
+                          cursor_.offset());
+  }
+
+  void beginRecord(std::uint64_t index) {
+    index_ = index;
+    recordStart_ = cursor_.offset();
+  }
+
+  double number(const Property& property) { return read(property.type); }
+
+  std::uint64_t listCount(const Property& property) {
+    const double count = read(*property.listCountType);
+    if (count < 0)
+      fail("{}: {} {} has negative list count {} for '{}'", position(), element_->name, index_, count,
+           property.name);
+    const auto items = static_cast<std::uint64_t>(count);
+    const std::size_t itemBytes = byteSize(property.type);
+    if (items > cursor_.remaining() / itemBytes)
+      fail("{}: {} {} lists {} values for '{}' ({} bytes each) but only {} bytes follow", position(),
+           element_->name, index_, items, property.name, itemBytes, cursor_.remaining());
+    return items;
+  }
+
+  void skipListItems(const Property& property, std::uint64_t count) {
+    cursor_.skip(count * byteSize(property.type), what_);
+  }
+
+  void endRecord() const {}
+  // Trailing bytes after the last element are tolerated: some writers pad.
+  void finish() const {}
+
+  std::string position() const { return fmt::format("byte {}", recordStart_); }
+
+ private:
+  double read(ScalarType type) {
+    switch (type) {
+      case ScalarType::Int8: return cursor_.read<std::int8_t>(bigEndian_, what_);
+      case ScalarType::UInt8: return cursor_.read<std::uint8_t>(bigEndian_, what_);
+      case ScalarType::Int16: return cursor_.read<std::int16_t>(bigEndian_, what_);
+      case ScalarType::UInt16: return cursor_.read<std::uint16_t>(bigEndian_, what_);
+      case ScalarType::Int32: return cursor_.read<std::int32_t>(bigEndian_, what_);
+      case ScalarType::UInt32: return cursor_.read<std::uint32_t>(bigEndian_, what_);
+      case ScalarType::Float32: return cursor_.read<float>(bigEndian_, what_);
+      case ScalarType::Float64: return cursor_.read<double>(bigEndian_, what_);
+    }
+    APO_CHECK(!"unhandled ScalarType");
+    return 0;
+  }
+
+  parse::BinaryCursor cursor_;
+  bool bigEndian_;
+  const Element* element_ = nullptr;
+  std::string what_;  // "vertex data": names truncated data in messages
+  std::uint64_t index_ = 0;
+  std::size_t recordStart_ = 0;
+};
+
+// --- Element readers ---------------------------------------------------------
+
+// Doubles beyond float range become infinities (a plain cast would be
+// undefined), so that cleaning drops them like other non-finite values.
+float toFloat(double value) {
+  constexpr double kMax = std::numeric_limits<float>::max();
+  if (value > kMax) return std::numeric_limits<float>::infinity();
+  if (value < -kMax) return -std::numeric_limits<float>::infinity();
+  return static_cast<float>(value);
+}
+
+// Integer channels are taken as 0..255; floating ones as 0..1, scaled.
+std::uint8_t colorByte(double value, ScalarType type) {
+  const double scaled = isFloating(type) ? value * 255.0 : value;
+  if (!(scaled > 0)) return 0;  // also NaN
+  if (scaled >= 255) return 255;
+  return static_cast<std::uint8_t>(std::lround(scaled));
+}
+
+template <class Body>
+void skipProperty(const Property& property, Body& body) {
+  if (property.isList())
+    body.skipListItems(property, body.listCount(property));
+  else
+    body.number(property);
+}
+
+template <class Body>
+void readVertices(const VertexPlan& plan, Body& body, PointSet& points) {
+  const Element& element = *plan.element;
+  const auto count = static_cast<std::size_t>(element.count);
+  points.positions.resize(count);
+  if (plan.normals) points.normals.resize(count);
+  if (plan.colors) points.colors.resize(count);
+  if (plan.intensities) points.intensities.resize(count);
+
+  std::array<double, kSlotCount> values{};
+  for (std::size_t i = 0; i < count; ++i) {
+    body.beginRecord(i);
+    for (std::size_t p = 0; p < element.properties.size(); ++p) {
+      const std::uint8_t slot = plan.slotOfProperty[p];
+      if (slot == kSkip)
+        skipProperty(element.properties[p], body);
+      else
+        values[slot] = body.number(element.properties[p]);
+    }
+    body.endRecord();
+
+    points.positions[i] = Vec3f(toFloat(values[kX]), toFloat(values[kY]), toFloat(values[kZ]));
+    if (plan.normals) points.normals[i] = Vec3f(toFloat(values[kNx]), toFloat(values[kNy]), toFloat(values[kNz]));
+    if (plan.colors)
+      points.colors[i] = {colorByte(values[kRed], plan.colorTypes[0]), colorByte(values[kGreen], plan.colorTypes[1]),
+                          colorByte(values[kBlue], plan.colorTypes[2])};
+    if (plan.intensities) points.intensities[i] = toFloat(values[kIntensity]);
+  }
+}
+
+template <class Body>
+std::uint32_t vertexIndex(double value, std::uint64_t vertexCount, std::uint64_t face, const Body& body) {
+  if (!(value >= 0 && value < static_cast<double>(vertexCount)))
+    fail("{}: face {}: vertex index {} out of range ({} vertices)", body.position(), face, value, vertexCount);
+  if (value != std::floor(value))
+    fail("{}: face {}: vertex index {} is not an integer", body.position(), face, value);
+  return static_cast<std::uint32_t>(value);
+}
+
+// Polygons become triangle fans (v0, vi, vi+1).
+void appendFan(const std::vector<std::uint32_t>& polygon, std::vector<Triangle>& triangles) {
+  for (std::size_t i = 1; i + 1 < polygon.size(); ++i) triangles.push_back({polygon[0], polygon[i], polygon[i + 1]});
+}
+
+template <class Body>
+void readFaces(const FacePlan& plan, std::uint64_t vertexCount, Body& body, std::vector<Triangle>& triangles) {
+  const Element& element = *plan.element;
+  triangles.reserve(triangles.size() + static_cast<std::size_t>(element.count));
+  std::vector<std::uint32_t> polygon;
+  for (std::uint64_t face = 0; face < element.count; ++face) {
+    body.beginRecord(face);
+    for (std::size_t p = 0; p < element.properties.size(); ++p) {
+      const Property& property = element.properties[p];
+      if (p != plan.indexProperty) {
+        skipProperty(property, body);
+        continue;
+      }
+      const std::uint64_t corners = body.listCount(property);
+      if (corners < 3) fail("{}: face {} has {} vertices, need at least 3", body.position(), face, corners);
+      polygon.resize(static_cast<std::size_t>(corners));
+      for (std::uint32_t& index : polygon) index = vertexIndex(body.number(property), vertexCount, face, body);
+    }
+    body.endRecord();
+    appendFan(polygon, triangles);
+  }
+}
+
+template <class Body>
+void skipElement(const Element& element, Body& body) {
+  for (std::uint64_t i = 0; i < element.count; ++i) {
+    body.beginRecord(i);
+    for (const Property& property : element.properties) skipProperty(property, body);
+    body.endRecord();
+  }
+}
+
+template <class Body>
+Scan readBody(const Header& header, Body& body) {
+  const VertexPlan vertexPlan = planVertices(header);
+  const FacePlan facePlan = planFaces(header);
+  Scan scan;
+  for (const Element& element : header.elements) {
+    if (element.properties.empty()) continue;  // holds no data, whatever its count
+    body.beginElement(element);
+    if (&element == vertexPlan.element)
+      readVertices(vertexPlan, body, scan.points);
+    else if (&element == facePlan.element)
+      readFaces(facePlan, vertexPlan.element->count, body, scan.triangles);
+    else
+      skipElement(element, body);
+  }
+  body.finish();
+  return scan;
+}
+
+}  // namespace
+
+Scan readPly(std::string_view bytes) {
+  const Header header = parseHeader(bytes);
+  if (header.encoding == Encoding::Ascii) {
+    AsciiBody body(header.afterHeader, bytes.size());
+    return readBody(header, body);
+  }
+  BinaryBody body(bytes, header.afterHeader.offset(), header.encoding == Encoding::BinaryBigEndian);
+  return readBody(header, body);
+}
+
+}  // namespace apo::readers

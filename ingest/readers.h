@@ -1,0 +1,23 @@
+// Internal to ingest: one pure function per format, from a file's bytes to a
+// Scan. They throw parse::ParseFailure with the position in the message;
+// readScan() adds the file name and turns it into a BadInput Error.
+#pragma once
+
+#include "core/geometry.h"
+
+#include <string>
+#include <string_view>
+
+namespace apo::readers {
+
+Scan readPly(std::string_view bytes);
+Scan readPcd(std::string_view bytes);
+Scan readXyz(std::string_view bytes);  // XYZ, XYZN, PTS and whitespace columns
+Scan readOff(std::string_view bytes);
+Scan readObj(std::string_view bytes);
+Scan readStl(std::string_view bytes);
+
+enum class PlyEncoding { Ascii, BinaryLittleEndian };
+std::string encodePly(const Scan& scan, PlyEncoding encoding);
+
+}  // namespace apo::readers

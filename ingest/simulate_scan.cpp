@@ -1,0 +1,111 @@
+// Virtual range scanner: known shapes in, realistic scans out.
+#include "ingest/ingest.h"
+
+#include <Eigen/Geometry>
+
+#include <cmath>
+#include <numbers>
+#include <random>
+
+namespace apo {
+namespace {
+
+// Evenly spread unit directions (Fibonacci sphere), deterministic.
+std::vector<Vec3f> fibonacciDirections(int count) {
+  std::vector<Vec3f> directions;
+  const double golden = std::numbers::pi * (3.0 - std::sqrt(5.0));
+  for (int i = 0; i < count; ++i) {
+    const double z = 1.0 - (2.0 * i + 1.0) / count;
+    const double radius = std::sqrt(std::max(0.0, 1.0 - z * z));
+    const double angle = golden * i;
+    directions.emplace_back(static_cast<float>(radius * std::cos(angle)), static_cast<float>(radius * std::sin(angle)),
+                            static_cast<float>(z));
+  }
+  return directions;
+}
+
+// A square grid of rays from `origin` towards `target`, wide enough to see a
+// sphere of `radius` around the target.
+std::vector<Ray> viewRays(const Vec3f& origin, const Vec3f& target, float radius, int raysPerSide) {
+  const Vec3f forward = (target - origin).normalized();
+  const Vec3f helper = std::abs(forward.z()) < 0.9f ? Vec3f::UnitZ() : Vec3f::UnitX();
+  const Vec3f right = forward.cross(helper).normalized();
+  const Vec3f up = right.cross(forward);
+  const float halfWidth = radius / std::sqrt(std::max(1e-12f, (target - origin).squaredNorm() - radius * radius));
+  std::vector<Ray> rays;
+  rays.reserve(static_cast<std::size_t>(raysPerSide) * raysPerSide);
+  for (int row = 0; row < raysPerSide; ++row)
+    for (int column = 0; column < raysPerSide; ++column) {
+      const float sx = (2.0f * (column + 0.5f) / raysPerSide - 1.0f) * halfWidth;
+      const float sy = (2.0f * (row + 0.5f) / raysPerSide - 1.0f) * halfWidth;
+      rays.push_back({origin, (forward + sx * right + sy * up).normalized()});
+    }
+  return rays;
+}
+
+// A small rigid motion about `centre`: rotation of `angle` radians about a
+// random axis, translation of length `offset` in a random direction.
+Eigen::Affine3f misregistration(std::mt19937_64& random, const Vec3f& centre, float angle, float offset) {
+  std::normal_distribution<float> gaussian(0.0f, 1.0f);
+  Vec3f axis(gaussian(random), gaussian(random), gaussian(random));
+  Vec3f shift(gaussian(random), gaussian(random), gaussian(random));
+  if (axis.norm() == 0.0f) axis = Vec3f::UnitZ();
+  if (shift.norm() == 0.0f) shift = Vec3f::UnitX();
+  return Eigen::Translation3f(centre + offset * shift.normalized()) * Eigen::AngleAxisf(angle, axis.normalized()) *
+         Eigen::Translation3f(-centre);
+}
+
+Status validate(const SimulateScanOptions& options) {
+  if (options.views < 1 || options.views > 10000) return usageError("--views must be in [1, 10000], got {}", options.views);
+  if (options.raysPerSide < 1 || options.raysPerSide > 8192)
+    return usageError("--rays must be in [1, 8192], got {}", options.raysPerSide);
+  if (!(options.rangeNoise >= 0.0) || !(options.misregistration >= 0.0))
+    return usageError("--noise and --misregistration must be >= 0");
+  return okStatus();
+}
+
+}  // namespace
+
+Result<SimulatedScan> simulateScan(const Scan& mesh, const SimulateScanOptions& options) {
+  APO_RETURN_IF_ERROR(validate(options));
+  auto caster = makeEmbreeMeshCaster(mesh);
+  if (!caster) return caster.error();
+
+  const Aabb box = boundingBox(mesh.points.positions);
+  const Vec3f centre = 0.5f * (box.min + box.max);
+  // Frame the mesh's bounding sphere about the box centre, tighter than the
+  // box's own so that most rays hit.
+  float radius = 0.0f;
+  for (const Vec3f& p : mesh.points.positions) radius = std::max(radius, (p - centre).norm());
+  const float noiseSigma = static_cast<float>(options.rangeNoise) * box.diagonal();
+  const float misregistrationSize = static_cast<float>(options.misregistration);
+
+  std::mt19937_64 random(options.seed);
+  std::normal_distribution<float> gaussian(0.0f, 1.0f);
+  SimulatedScan result;
+  std::vector<RayHit> hits;
+  for (const Vec3f& direction : fibonacciDirections(options.views)) {
+    const Vec3f origin = centre + 2.0f * radius * direction;
+    const auto rays = viewRays(origin, centre, radius, options.raysPerSide);
+    (*caster)->intersect(rays, hits);
+    const Eigen::Affine3f motion =
+        misregistration(random, centre, misregistrationSize, misregistrationSize * box.diagonal());
+    std::uint32_t kept = 0;
+    for (std::size_t i = 0; i < rays.size(); ++i) {
+      if (!hits[i].hit()) continue;
+      const float range = hits[i].t + noiseSigma * gaussian(random);
+      result.scan.points.positions.push_back(motion * Vec3f(rays[i].origin + range * rays[i].direction));
+      if (options.withNormals) {
+        Vec3f normal = hits[i].geometricNormal.normalized();
+        if (normal.dot(rays[i].direction) > 0) normal = -normal;  // the side the scanner saw
+        result.scan.points.normals.push_back(motion.linear() * normal);
+      }
+      ++kept;
+    }
+    result.viewOrigins.push_back(origin);
+    result.pointsPerView.push_back(kept);
+  }
+  return result;
+}
+
+}  // namespace apo

@@ -1,0 +1,43 @@
+#!/usr/bin/env bash
+# Installs every Debian package the project needs to build, test and fetch its
+# datasets. Run as root on Debian 12. Does nothing when all are present.
+set -euo pipefail
+
+# The one list of the project's system dependencies.
+PACKAGES=(
+  # toolchain
+  build-essential cmake pkg-config git ca-certificates
+  # geometry and scan processing
+  libpcl-dev libflann-dev libcgal-dev libembree-dev libglm-dev libopen3d-dev
+  libeigen3-dev libtbb-dev
+  # headless rendering
+  libosmesa6-dev
+  # command line, formats, logging, hashing
+  libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev libstb-dev libssl-dev
+  # tests and benchmarks
+  libgtest-dev libgmock-dev libbenchmark-dev
+  # dataset scripts (bunzip2 for the octomap scan)
+  bzip2 xz-utils
+)
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q '^install ok installed$'; then
+    missing+=("$p")
+  fi
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "setup: all ${#PACKAGES[@]} packages present"
+  exit 0
+fi
+
+if [ "$(id -u)" -ne 0 ]; then
+  echo "setup: missing packages (${missing[*]}); run this script as root" >&2
+  exit 1
+fi
+
+echo "setup: installing ${#missing[@]} packages: ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+apt-get update -q
+apt-get install -y -q --no-install-recommends "${missing[@]}"

@@ -1,0 +1,138 @@
+#include "ingest/ingest.h"
+
+#include "core/file_io.h"
+#include "tests/test_support.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+
+namespace apo {
+namespace {
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+
+std::string sphereXyz(std::size_t count) {
+  std::string text = "# points on the unit sphere\n";
+  for (const Vec3f& p : test::fibonacciSpherePoints(count)) text += fmt::format("{} {} {}\n", p.x(), p.y(), p.z());
+  return text;
+}
+
+std::size_t removedBy(const IngestReport& report, const std::string& step) {
+  for (const auto& s : report.steps)
+    if (s.name == step) return s.removed;
+  return ~std::size_t{0};
+}
+
+TEST(IngestScan, PointCloudIsCleanedAndGetsOutwardNormals) {
+  const fs::path path = test::freshTempDir() / "sphere.xyz";
+  std::string text = sphereXyz(3000) + "nan 0 0\n0 inf 0\n";  // two non-finite rows
+  const auto first = test::fibonacciSpherePoints(3000);
+  for (int i = 0; i < 5; ++i) text += fmt::format("{} {} {}\n", first[i].x(), first[i].y(), first[i].z());
+  test::writeBytes(path, text);
+  auto result = ingestScan(path, IngestOptions{});
+  ASSERT_TRUE(result.ok()) << result.error().message;
+  const IngestReport& report = result->report;
+  EXPECT_EQ(report.format, "xyz");
+  EXPECT_FALSE(report.isMesh);
+  EXPECT_EQ(removedBy(report, "drop_non_finite"), 2u);
+  EXPECT_EQ(removedBy(report, "merge_duplicate_points"), 5u);
+  EXPECT_EQ(report.pointsOut, 3000u);
+  EXPECT_EQ(report.normalsSource, "estimated");
+  EXPECT_EQ(report.normalOrientation, "mst");
+  EXPECT_EQ(report.inputSha256, sha256OfBytes(text));
+  const auto& points = result->scan.points;
+  for (std::size_t i = 0; i < points.size(); ++i) EXPECT_GT(points.normals[i].dot(points.positions[i]), 0.9f) << i;
+}
+
+TEST(IngestScan, MeshSoupIsWeldedAndGetsFaceNormals) {
+  // Two triangles of a square as an unwelded soup plus a degenerate and a
+  // duplicate triangle and an unused vertex.
+  const fs::path path = test::freshTempDir() / "square.off";
+  test::writeBytes(path,
+                   "OFF\n8 4 0\n0 0 0\n1 0 0\n1 1 0\n0 0 0\n1 1 0\n0 1 0\n5 5 5\n2 0 0\n"
+                   "3 0 1 2\n3 3 4 5\n3 0 1 7\n3 2 0 1\n");
+  auto result = ingestScan(path, IngestOptions{});
+  ASSERT_TRUE(result.ok()) << result.error().message;
+  const IngestReport& report = result->report;
+  EXPECT_TRUE(report.isMesh);
+  EXPECT_EQ(removedBy(report, "merge_duplicate_vertices"), 2u);
+  EXPECT_EQ(removedBy(report, "drop_degenerate_triangles"), 1u);
+  EXPECT_EQ(removedBy(report, "drop_duplicate_triangles"), 1u);
+  EXPECT_EQ(removedBy(report, "drop_unreferenced_vertices"), 2u);
+  EXPECT_EQ(report.pointsOut, 4u);
+  EXPECT_EQ(report.trianglesOut, 2u);
+  EXPECT_EQ(report.normalsSource, "computed_from_faces");
+  for (const Vec3f& n : result->scan.points.normals) EXPECT_NEAR(n.z(), 1.0f, 1e-6f);
+}
+
+TEST(IngestScan, AllNonFiniteIsBadInput) {
+  const fs::path path = test::freshTempDir() / "nan.xyz";
+  test::writeBytes(path, "nan 0 0\n0 nan 0\ninf 1 1\n");
+  auto result = ingestScan(path, IngestOptions{});
+  ASSERT_FALSE(result.ok());
+  EXPECT_EQ(result.error().kind, ErrorKind::BadInput);
+  EXPECT_THAT(result.error().message, HasSubstr(path.string()));
+  EXPECT_THAT(result.error().message, HasSubstr("all 3 points have non-finite coordinates"));
+}
+
+TEST(IngestScan, VoxelAndOutlierOptionsAreReported) {
+  const fs::path path = test::freshTempDir() / "sphere.xyz";
+  test::writeBytes(path, sphereXyz(4000) + "30 30 30\n");  // one far outlier
+  IngestOptions options;
+  options.removeOutliers = true;
+  options.voxelSize = 0.2;
+  auto result = ingestScan(path, options);
+  ASSERT_TRUE(result.ok()) << result.error().message;
+  EXPECT_GE(removedBy(result->report, "remove_statistical_outliers"), 1u);
+  for (const Vec3f& p : result->scan.points.positions) EXPECT_LT(p.norm(), 1.01f);
+  EXPECT_GT(removedBy(result->report, "voxel_downsample"), 3000u);
+}
+
+TEST(IngestScan, BadOptionIsAUsageError) {
+  IngestOptions options;
+  options.voxelSize = -1;
+  auto result = ingestScan("whatever.ply", options);
+  ASSERT_FALSE(result.ok());
+  EXPECT_EQ(result.error().kind, ErrorKind::Usage);
+}
+
+TEST(WriteIngestOutputs, WritesPlyAndJsonThatReadBack) {
+  const fs::path dir = test::freshTempDir();
+  const fs::path input = dir / "in.xyz";
+  test::writeBytes(input, sphereXyz(500));
+  auto result = ingestScan(input, IngestOptions{});
+  ASSERT_TRUE(result.ok());
+  ASSERT_TRUE(writeIngestOutputs(dir / "out", *result).ok());
+  auto ply = readScan(dir / "out" / "scan.ply");
+  ASSERT_TRUE(ply.ok()) << ply.error().message;
+  EXPECT_EQ(ply->points.positions, result->scan.points.positions);
+  EXPECT_EQ(ply->points.normals, result->scan.points.normals);
+  const auto json = nlohmann::json::parse(*readFileBytes(dir / "out" / "ingest.json"));
+  EXPECT_EQ(json["format_version"], 1);
+  EXPECT_EQ(json["input"]["sha256"], sha256OfBytes(sphereXyz(500)));
+  EXPECT_EQ(json["counts"]["points_out"], 500);
+  EXPECT_EQ(json["normals"]["source"], "estimated");
+  EXPECT_NEAR(json["bounding_box"]["diagonal"].get<double>(), 2.0 * std::sqrt(3.0), 0.05);
+  EXPECT_TRUE(json["cleaning"].is_array());
+}
+
+TEST(IngestScan, RealLaserScanTableSceneOrientsTowardsItsViewpoint) {
+  const fs::path path = test::datasetPath("pcl/table_scene_lms400.pcd");
+  auto result = ingestScan(path, IngestOptions{});
+  ASSERT_TRUE(result.ok()) << result.error().message;
+  const IngestReport& report = result->report;
+  EXPECT_EQ(report.pointsIn, 460400u);
+  EXPECT_EQ(report.normalsSource, "estimated");
+  EXPECT_EQ(report.normalOrientation, "viewpoint");
+  EXPECT_GT(report.pointsOut, 400000u);
+  const auto& points = result->scan.points;
+  for (std::size_t i = 0; i < points.size(); i += 97) {
+    EXPECT_NEAR(points.normals[i].norm(), 1.0f, 1e-4f);
+    EXPECT_GE(points.normals[i].dot(report.viewpoint.origin - points.positions[i]), 0.0f) << i;
+  }
+}
+
+}  // namespace
+}  // namespace apo

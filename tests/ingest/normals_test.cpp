@@ -1,0 +1,72 @@
+#include "ingest/normals.h"
+
+#include "tests/test_support.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+#include <random>
+
+namespace apo::normals {
+namespace {
+
+float angleDegrees(const Vec3f& a, const Vec3f& b) {
+  return std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0f, 1.0f)) * 180.0f / std::numbers::pi_v<float>;
+}
+
+// Sphere of radius 2 centred at (1, -1, 3), with radial noise.
+std::vector<Vec3f> noisySphere(std::size_t count, float noise, const Vec3f& centre) {
+  std::mt19937 random(7);
+  std::normal_distribution<float> gaussian(0.0f, noise);
+  std::vector<Vec3f> points;
+  for (const Vec3f& u : test::fibonacciSpherePoints(count)) points.push_back(centre + (2.0f + gaussian(random)) * u);
+  return points;
+}
+
+TEST(EstimateOrientedNormals, SphereWithoutViewpointIsOutwardWithin10Degrees) {
+  const Vec3f centre(1, -1, 3);
+  const auto points = noisySphere(20000, 0.002f, centre);
+  const OrientedNormals result = estimateOrientedNormals(points, std::nullopt, 0);
+  EXPECT_EQ(result.orientation, "mst");
+  EXPECT_EQ(result.unoriented, 0u);
+  float worst = 0.0f;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    ASSERT_TRUE(result.normals[i].allFinite()) << i;
+    worst = std::max(worst, angleDegrees(result.normals[i], points[i] - centre));
+  }
+  EXPECT_LT(worst, 10.0f);
+}
+
+TEST(EstimateOrientedNormals, ViewpointInsideTheSphereTurnsNormalsInwards) {
+  const Vec3f centre(1, -1, 3);
+  const auto points = noisySphere(5000, 0.0f, centre);
+  Viewpoint sensor;
+  sensor.origin = centre;
+  const OrientedNormals result = estimateOrientedNormals(points, sensor, 12);
+  EXPECT_EQ(result.orientation, "viewpoint");
+  EXPECT_EQ(result.neighbours, 12);
+  for (std::size_t i = 0; i < points.size(); ++i) EXPECT_LT(angleDegrees(result.normals[i], centre - points[i]), 10.0f) << i;
+}
+
+TEST(ChooseNeighbourCount, NoiseAsksForLargerNeighbourhoods) {
+  const Vec3f centre = Vec3f::Zero();
+  const int clean = chooseNeighbourCount(noisySphere(20000, 0.0f, centre));
+  const int noisy = chooseNeighbourCount(noisySphere(20000, 0.02f, centre));
+  EXPECT_EQ(clean, kCandidateNeighbourCounts[0]);
+  EXPECT_GT(noisy, clean);
+}
+
+TEST(ChooseNeighbourCount, RefusesNeighbourhoodsAlongScanLines) {
+  // Rows of points 100x denser along x than across rows: small k sees lines.
+  std::vector<Vec3f> rows;
+  for (int row = 0; row < 40; ++row)
+    for (int i = 0; i < 400; ++i) rows.emplace_back(i * 0.001f, row * 0.1f, 0.0f);
+  const int k = chooseNeighbourCount(rows);
+  EXPECT_EQ(k, kCandidateNeighbourCounts[std::size(kCandidateNeighbourCounts) - 1]);
+}
+
+TEST(ChooseNeighbourCount, TinyCloudsUseWhatTheyHave) { EXPECT_EQ(chooseNeighbourCount(noisySphere(5, 0, Vec3f::Zero())), 5); }
+
+}  // namespace
+}  // namespace apo::normals

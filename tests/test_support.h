@@ -1,0 +1,46 @@
+// Helpers shared by the tests: a fresh temporary folder per test, file
+// writing, and the one path to the real datasets.
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <string_view>
+
+namespace apo::test {
+
+// A new empty folder under the system temp dir, unique to the calling test.
+std::filesystem::path freshTempDir();
+
+// Writes bytes to a file (creating folders), for fixtures made by the tests.
+void writeBytes(const std::filesystem::path& path, std::string_view bytes);
+
+// Path of a file of the real datasets (datasets/<relative>). Runs
+// datasets_scripts/fetch_datasets.sh once if the file is missing, so a test
+// needing a dataset works on a fresh checkout. Fails the test if it cannot.
+std::filesystem::path datasetPath(const std::string& relative);
+
+// The `apo` executable under test (build/apo), set by CMake.
+std::filesystem::path apoExecutable();
+
+struct CommandResult {
+  int exitCode = -1;
+  std::string output;  // stdout and stderr interleaved
+};
+// Runs a shell command, capturing its output and exit code.
+CommandResult runCommand(const std::string& command);
+
+}  // namespace apo::test
+
+#include "core/geometry.h"
+
+namespace apo::test {
+
+// Unit-radius icosphere centred at the origin: an icosahedron whose faces are
+// split in four `subdivisions` times, vertices pushed onto the sphere.
+// Outward-facing triangles.
+Scan makeIcosphere(int subdivisions);
+
+// Points on the unit sphere (Fibonacci lattice), deterministic.
+std::vector<Vec3f> fibonacciSpherePoints(std::size_t count);
+
+}  // namespace apo::test
