@@ -42,6 +42,7 @@ int guarded(Body&& body) {
 struct IngestCommand {
   fs::path input;
   fs::path outDir;
+  std::vector<float> sensor;
   IngestOptions options;
 };
 
@@ -91,7 +92,13 @@ void addIngestCommand(CLI::App& app, int& exitCode) {
   sub->add_option("--normal-k", o.normalNeighbours, "Neighbours for normal estimation (0: chosen from the data)")
       ->capture_default_str();
   sub->add_flag("--force-normals", o.forceNormalEstimation, "Re-estimate normals even when the file has them");
-  sub->callback([command, &exitCode] { exitCode = guarded([&] { return runIngest(*command); }); });
+  sub->add_option("--sensor", command->sensor,
+                   "Scanner position X Y Z: estimated normals face it (overrides the file's viewpoint)")
+      ->expected(3);
+  sub->callback([command, &exitCode] {
+    if (!command->sensor.empty()) command->options.sensorPosition = Vec3f(command->sensor[0], command->sensor[1], command->sensor[2]);
+    exitCode = guarded([&] { return runIngest(*command); });
+  });
 }
 
 void addSimulateScanCommand(CLI::App& app, int& exitCode) {

@@ -25,6 +25,8 @@ Status validateOptions(const IngestOptions& options) {
   if (!(options.outlierStdDevs > 0.0)) return usageError("--outlier-std must be positive, got {}", options.outlierStdDevs);
   if (!(options.voxelSize >= 0.0) || !std::isfinite(options.voxelSize))
     return usageError("--voxel must be a finite size >= 0, got {}", options.voxelSize);
+  if (options.sensorPosition && !options.sensorPosition->allFinite())
+    return usageError("--sensor must be three finite numbers");
   if (options.normalNeighbours < 0 || options.normalNeighbours == 1 || options.normalNeighbours == 2)
     return usageError("--normal-k must be 0 (automatic) or at least 3, got {}", options.normalNeighbours);
   return okStatus();
@@ -94,6 +96,10 @@ Status pointCloudNormals(Scan& scan, const IngestOptions& options, IngestReport&
     return badInput("{}: {} points are too few to estimate normals (need at least {})", path.string(),
                     scan.points.size(), kMinPointsForNormals);
 
+  if (options.sensorPosition) {
+    scan.viewpoint = Viewpoint{};
+    scan.viewpoint->origin = *options.sensorPosition;
+  }
   Stopwatch watch;
   auto estimated = normals::estimateOrientedNormals(scan.points.positions, scan.viewpoint, options.normalNeighbours);
   scan.points.normals = std::move(estimated.normals);
@@ -103,8 +109,13 @@ Status pointCloudNormals(Scan& scan, const IngestOptions& options, IngestReport&
   report.normalNeighbours = estimated.neighbours;
   spdlog::info("ingest: normals estimated with k = {}, oriented by {} in {:.2f} s", estimated.neighbours,
                estimated.orientation, report.normalSeconds);
+  if (estimated.islands > 1)
+    spdlog::info("ingest: the scan is in {} separate pieces; each was oriented by its own spanning tree", estimated.islands);
   if (estimated.unoriented > 0)
-    spdlog::warn("ingest: {} points unreachable by the MST were oriented away from the centroid", estimated.unoriented);
+    spdlog::warn("ingest: {} points in small separate pieces were oriented like their nearest oriented point",
+                 estimated.unoriented);
+  report.orientationIslands = estimated.islands;
+  report.orientationLeftovers = estimated.unoriented;
 
   runStep(report, "drop_points_without_normal", [&] {
     std::vector<char> keep(scan.points.size());
@@ -189,7 +200,9 @@ std::string ingestReportJson(const IngestReport& report) {
                           {"diagonal", report.boundingBox.diagonal()}};
   json["normals"] = {{"source", report.normalsSource},
                      {"orientation", report.normalOrientation},
-                     {"neighbours", report.normalNeighbours}};
+                     {"neighbours", report.normalNeighbours},
+                     {"mst_islands", report.orientationIslands},
+                     {"oriented_by_nearest", report.orientationLeftovers}};
   if (report.hasViewpoint) {
     const auto& q = report.viewpoint.orientationWxyz;
     json["viewpoint"] = {{"origin", vectorJson(report.viewpoint.origin)}, {"orientation_wxyz", {q[0], q[1], q[2], q[3]}}};

@@ -48,6 +48,7 @@ struct IngestOptions {
   bool estimateNormals = true;      // for point clouds that have none
   int normalNeighbours = 0;         // 0: chosen from the data (see docs/ingest.md)
   bool forceNormalEstimation = false;  // re-estimate even if the file has normals
+  std::optional<Vec3f> sensorPosition; // overrides the file's viewpoint for orientation
 };
 
 // What happened to the scan, step by step, for ingest.json.
@@ -69,6 +70,8 @@ struct IngestReport {
   std::string normalsSource;      // "read", "estimated", "computed_from_faces"
   std::string normalOrientation;  // "viewpoint", "mst", "file", "faces"
   int normalNeighbours = 0;       // k used when estimated
+  std::uint64_t orientationIslands = 0;    // MST passes, one per separate piece
+  std::uint64_t orientationLeftovers = 0;  // points oriented by their nearest neighbour
   bool hasViewpoint = false;
   Viewpoint viewpoint;
   double readSeconds = 0.0;

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numeric>
 
 namespace apo::normals {
 namespace {
@@ -41,14 +42,65 @@ double median(std::vector<double> values) {
   return *middle;
 }
 
-void turnAwayFromCentroid(const std::vector<Vec3f>& points, std::vector<Vec3f>& normals,
-                          const std::vector<std::uint32_t>& affected) {
-  if (affected.empty()) return;
-  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
-  for (const Vec3f& p : points) centroid += p.cast<double>();
-  centroid /= static_cast<double>(points.size());
-  for (std::uint32_t i : affected)
-    if (normals[i].dot((points[i].cast<double>() - centroid).cast<float>()) < 0) normals[i] = -normals[i];
+template <class T>
+std::vector<T> gather(const std::vector<T>& values, const std::vector<std::uint32_t>& indices) {
+  std::vector<T> picked;
+  picked.reserve(indices.size());
+  for (std::uint32_t i : indices) picked.push_back(values[i]);
+  return picked;
+}
+
+// For each of `queries`, whether its normal agrees (non-negative dot product)
+// with the normal of the nearest point in `reference`.
+std::vector<char> agreesWithNearest(const std::vector<Vec3f>& points, const std::vector<Vec3f>& normals,
+                                    const std::vector<std::uint32_t>& reference,
+                                    const std::vector<std::uint32_t>& queries) {
+  const auto nearest = pcl_adapter::nearestInReference(gather(points, reference), gather(points, queries));
+  std::vector<char> agrees(queries.size());
+  for (std::size_t q = 0; q < queries.size(); ++q)
+    agrees[q] = normals[queries[q]].dot(normals[reference[static_cast<std::size_t>(nearest[q])]]) >= 0.0f;
+  return agrees;
+}
+
+struct IslandOrientation {
+  std::size_t islands = 0;     // MST passes that oriented something
+  std::size_t leftovers = 0;   // points oriented by their nearest neighbour alone
+};
+
+// CGAL's MST orients only the k-NN graph component that holds the highest
+// point, turning that point's normal up. A scan in separate pieces (several
+// objects, debris) is therefore oriented island by island with the same rule,
+// which is right for closed objects: each one's highest normal points up and
+// out. After kMaxIslandPasses, each leftover point agrees with its nearest
+// oriented point.
+constexpr int kMaxIslandPasses = 8;
+IslandOrientation orientByIslands(const std::vector<Vec3f>& points, std::vector<Vec3f>& normals, int k) {
+  IslandOrientation result;
+  std::vector<std::uint32_t> oriented;
+  std::vector<std::uint32_t> remaining(points.size());
+  std::iota(remaining.begin(), remaining.end(), 0u);
+  for (int pass = 0; pass < kMaxIslandPasses && remaining.size() > static_cast<std::size_t>(k); ++pass) {
+    std::vector<Vec3f> islandNormals = gather(normals, remaining);
+    const auto leftInSubset = cgal_adapter::orientNormalsMst(gather(points, remaining), islandNormals, k);
+    std::vector<char> left(remaining.size(), 0);
+    for (std::uint32_t i : leftInSubset) left[i] = 1;
+
+    std::vector<std::uint32_t> island, stillRemaining;
+    for (std::size_t i = 0; i < remaining.size(); ++i) {
+      normals[remaining[i]] = islandNormals[i];
+      (left[i] ? stillRemaining : island).push_back(remaining[i]);
+    }
+    oriented.insert(oriented.end(), island.begin(), island.end());
+    remaining = std::move(stillRemaining);
+    ++result.islands;
+  }
+  if (!remaining.empty() && !oriented.empty()) {
+    const auto agrees = agreesWithNearest(points, normals, oriented, remaining);
+    for (std::size_t q = 0; q < remaining.size(); ++q)
+      if (!agrees[q]) normals[remaining[q]] = -normals[remaining[q]];
+  }
+  result.leftovers = remaining.size();
+  return result;
 }
 
 }  // namespace
@@ -101,13 +153,11 @@ OrientedNormals estimateOrientedNormals(const std::vector<Vec3f>& points,
   std::vector<Vec3f> defined = result.normals;
   for (Vec3f& n : defined)
     if (!n.allFinite()) n = Vec3f::UnitZ();
-  const int mstNeighbours = std::max(result.neighbours, 12);
-  const auto unoriented = cgal_adapter::orientNormalsMst(points, defined, mstNeighbours);
+  const IslandOrientation islands = orientByIslands(points, defined, std::max(result.neighbours, 12));
   for (std::size_t i = 0; i < points.size(); ++i)
     if (result.normals[i].allFinite()) result.normals[i] = defined[i];
-  // Islands the spanning tree cannot reach get the convex-object rule.
-  result.unoriented = unoriented.size();
-  turnAwayFromCentroid(points, result.normals, unoriented);
+  result.islands = islands.islands;
+  result.unoriented = islands.leftovers;
   return result;
 }
 

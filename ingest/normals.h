@@ -24,12 +24,13 @@ struct OrientedNormals {
   std::vector<Vec3f> normals;   // unit, or NaN where no plane could be fitted
   int neighbours = 0;           // k used
   std::string orientation;      // "viewpoint" or "mst"
-  std::size_t unoriented = 0;   // points MST could not reach (flipped outwards)
+  std::size_t islands = 0;      // MST passes (separate pieces of the scan)
+  std::size_t unoriented = 0;   // points no MST pass reached (oriented by their nearest neighbour)
 };
 
 // Estimates normals (PCL, k nearest neighbours; k = 0 chooses it) and orients
-// them towards `viewpoint` when given, else by CGAL's minimum spanning tree;
-// MST leftovers are turned away from the centroid.
+// them towards `viewpoint` when given, else by CGAL's minimum spanning tree,
+// island by island for scans in separate pieces (docs/ingest.md).
 OrientedNormals estimateOrientedNormals(const std::vector<Vec3f>& points,
                                         const std::optional<Viewpoint>& viewpoint, int k);
 

@@ -71,4 +71,17 @@ std::vector<std::vector<int>> nearestNeighbours(const std::vector<Vec3f>& points
   return neighbours;
 }
 
+std::vector<int> nearestInReference(const std::vector<Vec3f>& reference, const std::vector<Vec3f>& queries) {
+  pcl::KdTreeFLANN<pcl::PointXYZ> tree;
+  tree.setInputCloud(toPcl(reference));
+  std::vector<int> nearest(queries.size());
+  pcl::Indices indices;
+  std::vector<float> squaredDistances;
+  for (std::size_t q = 0; q < queries.size(); ++q) {
+    tree.nearestKSearch(pcl::PointXYZ(queries[q].x(), queries[q].y(), queries[q].z()), 1, indices, squaredDistances);
+    nearest[q] = indices.at(0);
+  }
+  return nearest;
+}
+
 }  // namespace apo::pcl_adapter

@@ -23,4 +23,8 @@ std::vector<Vec3f> estimateNormals(const std::vector<Vec3f>& points, int k, cons
 std::vector<std::vector<int>> nearestNeighbours(const std::vector<Vec3f>& points,
                                                 const std::vector<std::uint32_t>& queries, int k);
 
+// Index into `reference` of the nearest reference point to each query
+// (exact k-d tree search; `reference` must not be empty).
+std::vector<int> nearestInReference(const std::vector<Vec3f>& reference, const std::vector<Vec3f>& queries);
+
 }  // namespace apo::pcl_adapter

@@ -90,6 +90,18 @@ TEST(IngestScan, VoxelAndOutlierOptionsAreReported) {
   EXPECT_GT(removedBy(result->report, "voxel_downsample"), 3000u);
 }
 
+TEST(IngestScan, SensorPositionOverridesOrientation) {
+  const fs::path path = test::freshTempDir() / "sphere.xyz";
+  test::writeBytes(path, sphereXyz(2000));
+  IngestOptions options;
+  options.sensorPosition = Vec3f::Zero();  // as if scanned from inside
+  auto result = ingestScan(path, options);
+  ASSERT_TRUE(result.ok()) << result.error().message;
+  EXPECT_EQ(result->report.normalOrientation, "viewpoint");
+  const auto& points = result->scan.points;
+  for (std::size_t i = 0; i < points.size(); ++i) EXPECT_LT(points.normals[i].dot(points.positions[i]), -0.9f) << i;
+}
+
 TEST(IngestScan, BadOptionIsAUsageError) {
   IngestOptions options;
   options.voxelSize = -1;

@@ -38,6 +38,20 @@ TEST(EstimateOrientedNormals, SphereWithoutViewpointIsOutwardWithin10Degrees) {
   EXPECT_LT(worst, 10.0f);
 }
 
+TEST(EstimateOrientedNormals, SeparateObjectsAreEachOrientedOutwards) {
+  const Vec3f left(-5, 0, 0), right(5, 0, 1);
+  auto points = noisySphere(6000, 0.0f, left);
+  const auto second = noisySphere(6000, 0.0f, right);
+  points.insert(points.end(), second.begin(), second.end());
+  const OrientedNormals result = estimateOrientedNormals(points, std::nullopt, 0);
+  EXPECT_EQ(result.islands, 2u);
+  EXPECT_EQ(result.unoriented, 0u);
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Vec3f& centre = i < 6000 ? left : right;
+    ASSERT_LT(angleDegrees(result.normals[i], points[i] - centre), 10.0f) << i;
+  }
+}
+
 TEST(EstimateOrientedNormals, ViewpointInsideTheSphereTurnsNormalsInwards) {
   const Vec3f centre(1, -1, 3);
   const auto points = noisySphere(5000, 0.0f, centre);
