@@ -63,43 +63,66 @@ std::vector<char> agreesWithNearest(const std::vector<Vec3f>& points, const std:
 }
 
 struct IslandOrientation {
-  std::size_t islands = 0;     // MST passes that oriented something
+  std::size_t islands = 0;     // k-NN graph components oriented by their own MST
   std::size_t leftovers = 0;   // points oriented by their nearest neighbour alone
 };
 
+// Connected components of the symmetric k-nearest-neighbour graph, largest
+// first (ties: lowest first index), each listing its points ascending.
+std::vector<std::vector<std::uint32_t>> neighbourGraphComponents(const std::vector<Vec3f>& points, int k) {
+  std::vector<std::uint32_t> all(points.size());
+  std::iota(all.begin(), all.end(), 0u);
+  const auto neighbours = pcl_adapter::nearestNeighbours(points, all, std::min<int>(k + 1, static_cast<int>(points.size())));
+  std::vector<std::uint32_t> parent(all);
+  auto root = [&](std::uint32_t i) {
+    while (parent[i] != i) i = parent[i] = parent[parent[i]];
+    return i;
+  };
+  for (std::uint32_t i = 0; i < points.size(); ++i)
+    for (int j : neighbours[i]) {
+      const std::uint32_t a = root(i), b = root(static_cast<std::uint32_t>(j));
+      if (a != b) parent[std::max(a, b)] = std::min(a, b);
+    }
+  std::vector<std::vector<std::uint32_t>> byRoot(points.size());
+  for (std::uint32_t i = 0; i < points.size(); ++i) byRoot[root(i)].push_back(i);
+  std::vector<std::vector<std::uint32_t>> components;
+  for (auto& members : byRoot)
+    if (!members.empty()) components.push_back(std::move(members));
+  std::stable_sort(components.begin(), components.end(),
+                   [](const auto& a, const auto& b) { return a.size() > b.size(); });
+  return components;
+}
+
 // CGAL's MST orients only the k-NN graph component that holds the highest
 // point, turning that point's normal up. A scan in separate pieces (several
-// objects, debris) is therefore oriented island by island with the same rule,
-// which is right for closed objects: each one's highest normal points up and
-// out. After kMaxIslandPasses, each leftover point agrees with its nearest
-// oriented point.
-constexpr int kMaxIslandPasses = 8;
+// objects, debris) is therefore oriented component by component with the
+// same rule, which is right for closed objects: each one's highest normal
+// points up and out. Components too small for a graph (k points or fewer),
+// and points CGAL leaves, agree with their nearest oriented point.
 IslandOrientation orientByIslands(const std::vector<Vec3f>& points, std::vector<Vec3f>& normals, int k) {
   IslandOrientation result;
-  std::vector<std::uint32_t> oriented;
-  std::vector<std::uint32_t> remaining(points.size());
-  std::iota(remaining.begin(), remaining.end(), 0u);
-  for (int pass = 0; pass < kMaxIslandPasses && remaining.size() > static_cast<std::size_t>(k); ++pass) {
-    std::vector<Vec3f> islandNormals = gather(normals, remaining);
-    const auto leftInSubset = cgal_adapter::orientNormalsMst(gather(points, remaining), islandNormals, k);
-    std::vector<char> left(remaining.size(), 0);
-    for (std::uint32_t i : leftInSubset) left[i] = 1;
-
-    std::vector<std::uint32_t> island, stillRemaining;
-    for (std::size_t i = 0; i < remaining.size(); ++i) {
-      normals[remaining[i]] = islandNormals[i];
-      (left[i] ? stillRemaining : island).push_back(remaining[i]);
+  std::vector<std::uint32_t> oriented, leftovers;
+  for (const auto& component : neighbourGraphComponents(points, k)) {
+    if (component.size() <= static_cast<std::size_t>(k)) {
+      leftovers.insert(leftovers.end(), component.begin(), component.end());
+      continue;
     }
-    oriented.insert(oriented.end(), island.begin(), island.end());
-    remaining = std::move(stillRemaining);
+    std::vector<Vec3f> componentNormals = gather(normals, component);
+    const auto left = cgal_adapter::orientNormalsMst(gather(points, component), componentNormals, k);
+    std::vector<char> isLeft(component.size(), 0);
+    for (std::uint32_t i : left) isLeft[i] = 1;
+    for (std::size_t i = 0; i < component.size(); ++i) {
+      normals[component[i]] = componentNormals[i];
+      (isLeft[i] ? leftovers : oriented).push_back(component[i]);
+    }
     ++result.islands;
   }
-  if (!remaining.empty() && !oriented.empty()) {
-    const auto agrees = agreesWithNearest(points, normals, oriented, remaining);
-    for (std::size_t q = 0; q < remaining.size(); ++q)
-      if (!agrees[q]) normals[remaining[q]] = -normals[remaining[q]];
+  if (!leftovers.empty() && !oriented.empty()) {
+    const auto agrees = agreesWithNearest(points, normals, oriented, leftovers);
+    for (std::size_t q = 0; q < leftovers.size(); ++q)
+      if (!agrees[q]) normals[leftovers[q]] = -normals[leftovers[q]];
   }
-  result.leftovers = remaining.size();
+  result.leftovers = leftovers.size();
   return result;
 }
 

@@ -24,7 +24,7 @@ struct OrientedNormals {
   std::vector<Vec3f> normals;   // unit, or NaN where no plane could be fitted
   int neighbours = 0;           // k used
   std::string orientation;      // "viewpoint" or "mst"
-  std::size_t islands = 0;      // MST passes (separate pieces of the scan)
+  std::size_t islands = 0;      // separate pieces, each oriented by its own MST
   std::size_t unoriented = 0;   // points no MST pass reached (oriented by their nearest neighbour)
 };
 
