@@ -4,6 +4,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "tests/ingest/reader_failure.h"
+
 #include <cmath>
 #include <string>
 
@@ -14,16 +16,7 @@ using ::testing::ElementsAre;
 using ::testing::HasSubstr;
 using ::testing::StartsWith;
 
-// The message readObj fails with; fails the test if it reads the bytes.
-std::string objFailure(std::string_view bytes) {
-  try {
-    readers::readObj(bytes);
-  } catch (const parse::ParseFailure& failure) {
-    return failure.what();
-  }
-  ADD_FAILURE() << "readObj accepted: " << bytes;
-  return {};
-}
+std::string objFailure(std::string_view bytes) { return test::readerFailure(readers::readObj, bytes); }
 
 constexpr std::string_view kObjSquare = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n";
 

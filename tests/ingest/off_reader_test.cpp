@@ -4,6 +4,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "tests/ingest/reader_failure.h"
+
 #include <cmath>
 #include <string>
 #include <vector>
@@ -15,16 +17,7 @@ using ::testing::ElementsAre;
 using ::testing::HasSubstr;
 using ::testing::StartsWith;
 
-// The message readOff fails with; fails the test if it reads the bytes.
-std::string offFailure(std::string_view bytes) {
-  try {
-    readers::readOff(bytes);
-  } catch (const parse::ParseFailure& failure) {
-    return failure.what();
-  }
-  ADD_FAILURE() << "readOff accepted: " << bytes;
-  return {};
-}
+std::string offFailure(std::string_view bytes) { return test::readerFailure(readers::readOff, bytes); }
 
 // The corners of a unit square, long enough that the header checks (at
 // least 6 bytes per vertex, 8 per face) pass with a few faces declared.

@@ -4,6 +4,8 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+
+#include "tests/ingest/reader_failure.h"
 #include <pcl/io/lzf.h>
 #include <pcl/io/pcd_io.h>
 #include <pcl/point_cloud.h>
@@ -72,15 +74,7 @@ std::string compressedBody(const std::string& plain) {
   return body + compressed;
 }
 
-// The reader's failure message, or a note that it did not fail.
-std::string failureOf(std::string_view bytes) {
-  try {
-    readPcd(bytes);
-  } catch (const parse::ParseFailure& failure) {
-    return failure.what();
-  }
-  return "<no failure>";
-}
+std::string failureOf(std::string_view bytes) { return test::readerFailure(readPcd, bytes); }
 
 std::string fileBytes(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);

@@ -7,6 +7,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "tests/ingest/reader_failure.h"
+
 #include <algorithm>
 #include <bit>
 #include <chrono>
@@ -22,16 +24,7 @@ namespace {
 
 using ::testing::HasSubstr;
 
-// The ParseFailure message readPly throws on `bytes`; a test failure if none.
-std::string failureOf(std::string_view bytes) {
-  try {
-    readPly(bytes);
-  } catch (const parse::ParseFailure& failure) {
-    return failure.what();
-  }
-  ADD_FAILURE() << "readPly accepted a malformed file";
-  return {};
-}
+std::string failureOf(std::string_view bytes) { return test::readerFailure(readPly, bytes); }
 
 // A binary body built value by value in a chosen byte order.
 class BinaryBytes {

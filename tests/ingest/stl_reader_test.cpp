@@ -4,6 +4,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "tests/ingest/reader_failure.h"
+
 #include <array>
 #include <bit>
 #include <cmath>
@@ -18,16 +20,7 @@ using ::testing::ElementsAre;
 using ::testing::HasSubstr;
 using ::testing::StartsWith;
 
-// The message readStl fails with; fails the test if it reads the bytes.
-std::string stlFailure(std::string_view bytes) {
-  try {
-    readers::readStl(bytes);
-  } catch (const parse::ParseFailure& failure) {
-    return failure.what();
-  }
-  ADD_FAILURE() << "readStl accepted " << bytes.size() << " bytes";
-  return {};
-}
+std::string stlFailure(std::string_view bytes) { return test::readerFailure(readers::readStl, bytes); }
 
 void appendLittleEndian(std::string& bytes, std::uint32_t value, int byteCount) {
   for (int i = 0; i < byteCount; ++i) bytes.push_back(static_cast<char>((value >> (8 * i)) & 0xff));

@@ -4,6 +4,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "tests/ingest/reader_failure.h"
+
 #include <cmath>
 #include <string>
 
@@ -13,16 +15,7 @@ namespace {
 using ::testing::HasSubstr;
 using ::testing::StartsWith;
 
-// The message readXyz fails with; fails the test if it reads the bytes.
-std::string xyzFailure(std::string_view bytes) {
-  try {
-    readers::readXyz(bytes);
-  } catch (const parse::ParseFailure& failure) {
-    return failure.what();
-  }
-  ADD_FAILURE() << "readXyz accepted: " << bytes;
-  return {};
-}
+std::string xyzFailure(std::string_view bytes) { return test::readerFailure(readers::readXyz, bytes); }
 
 TEST(XyzReader, ReadsThreeColumnsSkippingCommentsAndBlankLines) {
   const Scan scan = readers::readXyz(

@@ -1,0 +1,112 @@
+// reconstruct: turns scan points with oriented normals into a dense triangle
+// mesh M (CGAL Poisson, advancing front or scale-space reconstruction), and
+// simplifies a dense mesh M into a coarse mesh m (CGAL edge collapse).
+// Every CGAL failure is caught at its adapter and returned as an Error.
+#pragma once
+
+#include "core/error.h"
+#include "core/geometry.h"
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace apo {
+
+enum class ReconstructionMethod { Poisson, AdvancingFront, ScaleSpace };
+std::string methodName(ReconstructionMethod method);  // "poisson", ...
+
+struct ReconstructOptions {
+  ReconstructionMethod method = ReconstructionMethod::Poisson;
+  // Above this many points, reconstruct from a density-aware subsample
+  // (CGAL grid simplification); 0 means never subsample.
+  std::uint64_t maxPoints = 300000;
+  // Poisson: drop triangles farther than trim x average spacing from the
+  // nearest input point (Poisson closes holes with invented surface).
+  double trim = 3.0;
+  // Advancing front: refuse triangles whose circumradius exceeds this
+  // multiple of the average spacing (they bridge holes).
+  double radiusRatioBound = 5.0;
+  // Drop connected components smaller than this fraction of M's total area.
+  double minComponent = 0.01;
+  // Average spacing over this many neighbours (CGAL compute_average_spacing).
+  int spacingNeighbours = 6;
+  // 0: derived from the data. Poisson: the mesher's distance bound in
+  // average spacings; scale space: the smoothing scale in average spacings.
+  double poissonSpacing = 0.0;
+  double scaleSpaceScale = 0.0;
+  std::uint32_t seed = 1;  // CGAL's random generator (Poisson), for repeatability
+};
+
+// Topology and size figures of a triangle mesh.
+struct MeshQuality {
+  std::uint64_t vertices = 0, triangles = 0;
+  std::uint64_t nonManifoldEdges = 0;     // edges with more than two triangles
+  std::uint64_t nonManifoldVertices = 0;  // vertices whose triangles form several fans
+  std::uint64_t boundaryLoops = 0;
+  std::uint64_t components = 0;
+  std::int64_t eulerCharacteristic = 0;   // V - E + F
+  double area = 0.0;
+  double diagonal = 0.0;                  // of the bounding box
+};
+
+struct ReconstructReport {
+  std::string method;
+  std::uint64_t pointsIn = 0, pointsUsed = 0;  // pointsUsed < pointsIn when subsampled
+  double averageSpacing = 0.0;                 // of the points used
+  std::uint64_t trimmedTriangles = 0;
+  double trimmedArea = 0.0;
+  std::uint64_t droppedComponents = 0;
+  double droppedArea = 0.0;
+  MeshQuality quality;
+  // Distance from the input points to M, as fractions of M's bbox diagonal.
+  double pointToMeshMean = 0.0, pointToMeshP95 = 0.0;
+  double seconds = 0.0;
+};
+
+struct Reconstruction {
+  Scan mesh;  // M, with unit vertex normals
+  ReconstructReport report;
+};
+
+// Reconstructs M from points with oriented normals. BadInput when there are
+// too few points, no normals, or the points are all on a plane (Poisson), and
+// when CGAL produces no surface; Usage for out-of-range options.
+Result<Reconstruction> reconstructSurface(const PointSet& points, const ReconstructOptions& options);
+
+enum class SimplifyPolicy { GarlandHeckbert, LindstromTurk };
+std::string policyName(SimplifyPolicy policy);
+
+struct SimplifyOptions {
+  std::uint64_t targetFaces = 3000;  // used when ratio == 0
+  double ratio = 0.0;                // (0, 1]: target = ratio x input faces
+  SimplifyPolicy policy = SimplifyPolicy::GarlandHeckbert;
+};
+
+struct SimplifyReport {
+  std::string policy;
+  std::uint64_t facesIn = 0, facesOut = 0, targetFaces = 0;
+  // Two-sided Hausdorff and mean distances between m and M, as fractions of
+  // M's bounding-box diagonal.
+  double hausdorff = 0.0, meanDistance = 0.0;
+  MeshQuality quality;
+  double seconds = 0.0;
+};
+
+struct Simplification {
+  Scan mesh;  // m, with unit vertex normals
+  SimplifyReport report;
+};
+
+// Edge-collapse simplification of a triangle mesh to the target face count
+// (within 1%), borders kept. Deterministic.
+Result<Simplification> simplifyMesh(const Scan& mesh, const SimplifyOptions& options);
+
+// Figures of a mesh (CGAL Polygon_mesh_processing).
+MeshQuality measureMesh(const Scan& mesh);
+
+// JSON text of the reports (format_version 1, stable key order).
+std::string reconstructReportJson(const ReconstructReport& report);
+std::string simplifyReportJson(const SimplifyReport& report);
+
+}  // namespace apo
