@@ -2,11 +2,14 @@
 
 #include "core/error.h"
 #include "core/timing.h"
+#include "core/file_io.h"
 #include "ingest/ingest.h"
+#include "reconstruct/reconstruct.h"
 
 #include <spdlog/spdlog.h>
 
 #include <filesystem>
+#include <map>
 
 namespace apo::cli {
 namespace fs = std::filesystem;
@@ -75,7 +78,104 @@ int runSimulateScan(const SimulateScanCommand& command) {
   return kExitSuccess;
 }
 
+struct ReconstructCommand {
+  fs::path input;
+  fs::path outDir;
+  ReconstructOptions options;
+};
+
+int runReconstruct(const ReconstructCommand& command) {
+  auto scan = readScan(command.input);
+  if (!scan) return reportFailure(scan.error());
+  auto reconstruction = reconstructScan(*scan, command.options);
+  if (!reconstruction) {
+    const Error& error = reconstruction.error();
+    return reportFailure({error.kind, command.input.string() + ": " + error.message});
+  }
+  if (Status written = writePly(command.outDir / "M.ply", reconstruction->mesh); !written.ok())
+    return reportFailure(written.error());
+  if (Status written = writeFileAtomically(command.outDir / "reconstruct.json", reconstructReportJson(reconstruction->report));
+      !written.ok())
+    return reportFailure(written.error());
+  const ReconstructReport& report = reconstruction->report;
+  spdlog::info("reconstruct: {} -> {} vertices, {} triangles, {} component(s), mean point distance {:.3g} of the diagonal, {:.2f} s",
+               report.method, report.quality.vertices, report.quality.triangles, report.quality.components,
+               report.pointToMeshMean, report.seconds);
+  return kExitSuccess;
+}
+
+struct SimplifyCommand {
+  fs::path input;
+  fs::path outDir;
+  std::string policy = "gh";
+  SimplifyOptions options;
+};
+
+int runSimplify(SimplifyCommand command) {
+  command.options.policy = command.policy == "lt" ? SimplifyPolicy::LindstromTurk : SimplifyPolicy::GarlandHeckbert;
+  auto mesh = readScan(command.input);
+  if (!mesh) return reportFailure(mesh.error());
+  auto simplified = simplifyMesh(*mesh, command.options);
+  if (!simplified) {
+    const Error& error = simplified.error();
+    return reportFailure({error.kind, command.input.string() + ": " + error.message});
+  }
+  if (Status written = writePly(command.outDir / "m.ply", simplified->mesh); !written.ok()) return reportFailure(written.error());
+  if (Status written = writeFileAtomically(command.outDir / "simplify.json", simplifyReportJson(simplified->report));
+      !written.ok())
+    return reportFailure(written.error());
+  const SimplifyReport& report = simplified->report;
+  spdlog::info("simplify: {} -> {} faces ({}), Hausdorff {:.3g} and mean {:.3g} of the diagonal, {:.2f} s", report.facesIn,
+               report.facesOut, report.policy, report.hausdorff, report.meanDistance, report.seconds);
+  return kExitSuccess;
+}
+
 }  // namespace
+
+void addReconstructCommand(CLI::App& app, int& exitCode) {
+  auto command = std::make_shared<ReconstructCommand>();
+  CLI::App* sub = app.add_subcommand("reconstruct", "Reconstruct a dense mesh M from scan points with normals");
+  sub->add_option("input", command->input, "Points with oriented normals (e.g. scan.ply from apo ingest), or a mesh")
+      ->required();
+  sub->add_option("-o,--out", command->outDir, "Output folder (M.ply, reconstruct.json)")->required();
+  ReconstructOptions& o = command->options;
+  const std::map<std::string, ReconstructionMethod> methods = {{"poisson", ReconstructionMethod::Poisson},
+                                                               {"advancing-front", ReconstructionMethod::AdvancingFront},
+                                                               {"scale-space", ReconstructionMethod::ScaleSpace}};
+  sub->add_option("--method", o.method, "poisson (closed objects), advancing-front (open scans, fast), scale-space")
+      ->transform(CLI::CheckedTransformer(methods, CLI::ignore_case))
+      ->default_str("poisson");
+  sub->add_option("--max-points", o.maxPoints, "Reconstruct from a density-aware subsample above this (0: never)")
+      ->capture_default_str();
+  sub->add_option("--trim", o.trim, "Poisson: drop triangles farther than this many average spacings from the points")
+      ->capture_default_str();
+  sub->add_option("--radius-ratio", o.radiusRatioBound,
+                  "Advancing front / scale space: drop triangles with a circumradius above this many spacings")
+      ->capture_default_str();
+  sub->add_option("--min-component", o.minComponent, "Drop components below this fraction of the total area")
+      ->capture_default_str();
+  sub->add_option("--spacing-k", o.spacingNeighbours, "Neighbours for the average spacing")->capture_default_str();
+  sub->add_option("--poisson-distance", o.poissonSpacing, "Poisson mesher distance bound in spacings (0: 0.375)")
+      ->capture_default_str();
+  sub->add_option("--poisson-radius", o.poissonRadius, "Poisson triangle size bound in spacings (CGAL's default: 30)")
+      ->capture_default_str();
+  sub->add_option("--scale", o.scaleSpaceScale, "Scale-space smoothing scale in spacings (0: 4)")->capture_default_str();
+  sub->add_option("--seed", o.seed, "Seed of CGAL's random generator")->capture_default_str();
+  sub->callback([command, &exitCode] { exitCode = guarded([&] { return runReconstruct(*command); }); });
+}
+
+void addSimplifyCommand(CLI::App& app, int& exitCode) {
+  auto command = std::make_shared<SimplifyCommand>();
+  CLI::App* sub = app.add_subcommand("simplify", "Simplify a dense mesh M into a coarse mesh m (edge collapse)");
+  sub->add_option("input", command->input, "Triangle mesh M")->required();
+  sub->add_option("-o,--out", command->outDir, "Output folder (m.ply, simplify.json)")->required();
+  auto* faces = sub->add_option("--faces", command->options.targetFaces, "Target face count")->capture_default_str();
+  sub->add_option("--ratio", command->options.ratio, "Target as a fraction of the input faces, in (0, 1]")->excludes(faces);
+  sub->add_option("--policy", command->policy, "gh: Garland-Heckbert quadrics (the paper's), lt: Lindstrom-Turk")
+      ->check(CLI::IsMember({"gh", "lt"}))
+      ->capture_default_str();
+  sub->callback([command, &exitCode] { exitCode = guarded([&] { return runSimplify(*command); }); });
+}
 
 void addIngestCommand(CLI::App& app, int& exitCode) {
   auto command = std::make_shared<IngestCommand>();

@@ -14,5 +14,7 @@ inline constexpr int kExitInternal = 3;
 
 void addIngestCommand(CLI::App& app, int& exitCode);
 void addSimulateScanCommand(CLI::App& app, int& exitCode);
+void addReconstructCommand(CLI::App& app, int& exitCode);
+void addSimplifyCommand(CLI::App& app, int& exitCode);
 
 }  // namespace apo::cli

@@ -27,6 +27,8 @@ int main(int argc, char** argv) {
   int exitCode = kExitSuccess;
   addIngestCommand(app, exitCode);
   addSimulateScanCommand(app, exitCode);
+  addReconstructCommand(app, exitCode);
+  addSimplifyCommand(app, exitCode);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& error) {

@@ -69,4 +69,11 @@ struct Aabb {
 
 Aabb boundingBox(const std::vector<Vec3f>& positions);
 
+// Unit vertex normals of a mesh, each the area-weighted sum of its triangles'
+// normals; vertices in no triangle (or only degenerate ones) get +z.
+std::vector<Vec3f> areaWeightedVertexNormals(const Scan& mesh);
+
+// Total area of a mesh's triangles.
+double surfaceArea(const Scan& mesh);
+
 }  // namespace apo

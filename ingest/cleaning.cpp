@@ -139,21 +139,6 @@ std::size_t normaliseNormals(PointSet& points) {
   return invalid;
 }
 
-std::vector<Vec3f> vertexNormalsFromTriangles(const Scan& mesh) {
-  const auto& p = mesh.points.positions;
-  std::vector<Vec3f> normals(p.size(), Vec3f::Zero());
-  for (const Triangle& t : mesh.triangles) {
-    // The cross product's length is twice the area: area weighting for free.
-    const Vec3f areaNormal = (p[t[1]] - p[t[0]]).cross(p[t[2]] - p[t[0]]);
-    for (auto v : t) normals[v] += areaNormal;
-  }
-  for (Vec3f& n : normals) {
-    const float length = n.norm();
-    n = length > 0.0f ? Vec3f(n / length) : Vec3f::UnitZ();
-  }
-  return normals;
-}
-
 }  // namespace apo::cleaning
 
 namespace apo::cleaning {

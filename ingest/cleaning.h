@@ -36,9 +36,6 @@ std::size_t dropUnreferencedVertices(Scan& scan);
 // non-finite (left as they are, for the caller to decide).
 std::size_t normaliseNormals(PointSet& points);
 
-// Area-weighted vertex normals of a mesh (vertices in no triangle get +z).
-std::vector<Vec3f> vertexNormalsFromTriangles(const Scan& mesh);
-
 }  // namespace apo::cleaning
 
 namespace apo::cleaning {

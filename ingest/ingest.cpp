@@ -55,7 +55,7 @@ void meshNormals(Scan& scan, IngestReport& report) {
     report.normalOrientation = "file";
     return;
   }
-  scan.points.normals = cleaning::vertexNormalsFromTriangles(scan);
+  scan.points.normals = areaWeightedVertexNormals(scan);
   report.normalsSource = "computed_from_faces";
   report.normalOrientation = "faces";
 }
@@ -212,6 +212,9 @@ std::string ingestReportJson(const IngestReport& report) {
   json["seconds"] = {{"read", report.readSeconds}, {"normals", report.normalSeconds}, {"total", report.totalSeconds}};
   return json.dump(2) + "\n";
 }
+
+std::size_t dropDegenerateTriangles(Scan& mesh) { return cleaning::dropDegenerateTriangles(mesh); }
+std::size_t dropUnreferencedVertices(Scan& mesh) { return cleaning::dropUnreferencedVertices(mesh); }
 
 Status writeIngestOutputs(const fs::path& outDir, const IngestResult& result) {
   APO_RETURN_IF_ERROR(writePly(outDir / "scan.ply", result.scan));

@@ -92,6 +92,12 @@ Result<IngestResult> ingestScan(const std::filesystem::path& path, const IngestO
 // ingest.json text (pretty-printed, stable key order) for a report.
 std::string ingestReportJson(const IngestReport& report);
 
+// Mesh repair steps that ingest runs, for later stages whose meshes need the
+// same care. Each returns how many triangles (or vertices) it removed and
+// keeps attributes and indices consistent.
+std::size_t dropDegenerateTriangles(Scan& mesh);     // repeated vertex or zero area
+std::size_t dropUnreferencedVertices(Scan& mesh);    // vertices in no triangle
+
 // Writes `scan.ply` and `ingest.json` into `outDir`, atomically.
 Status writeIngestOutputs(const std::filesystem::path& outDir, const IngestResult& result);
 

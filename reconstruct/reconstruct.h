@@ -35,6 +35,9 @@ struct ReconstructOptions {
   // average spacings; scale space: the smoothing scale in average spacings.
   double poissonSpacing = 0.0;
   double scaleSpaceScale = 0.0;
+  // Poisson: bound on the mesher's triangle size (Delaunay-ball radius) in
+  // average spacings; M must be dense enough to carry the scan's detail.
+  double poissonRadius = 1.0;
   std::uint32_t seed = 1;  // CGAL's random generator (Poisson), for repeatability
 };
 
@@ -74,6 +77,10 @@ struct Reconstruction {
 // when CGAL produces no surface; Usage for out-of-range options.
 Result<Reconstruction> reconstructSurface(const PointSet& points, const ReconstructOptions& options);
 
+// M for a scan: a mesh is adopted as it is (method "input-mesh", figures
+// measured), a point cloud is reconstructed.
+Result<Reconstruction> reconstructScan(const Scan& scan, const ReconstructOptions& options);
+
 enum class SimplifyPolicy { GarlandHeckbert, LindstromTurk };
 std::string policyName(SimplifyPolicy policy);
 
@@ -102,7 +109,8 @@ struct Simplification {
 // (within 1%), borders kept. Deterministic.
 Result<Simplification> simplifyMesh(const Scan& mesh, const SimplifyOptions& options);
 
-// Figures of a mesh (CGAL Polygon_mesh_processing).
+// Figures of a mesh, counted on its triangles as a soup (sorted edge lists and
+// union-find), so that non-manifold input is measured, not refused.
 MeshQuality measureMesh(const Scan& mesh);
 
 // JSON text of the reports (format_version 1, stable key order).

@@ -96,6 +96,29 @@ Scan makeIcosphere(int subdivisions) {
   return mesh;
 }
 
+Scan makeTorus(float majorRadius, float minorRadius, int segments, int rings) {
+  Scan mesh;
+  for (int i = 0; i < segments; ++i)
+    for (int j = 0; j < rings; ++j) {
+      const double u = 2.0 * std::numbers::pi * i / segments, v = 2.0 * std::numbers::pi * j / rings;
+      const double radius = majorRadius + minorRadius * std::cos(v);
+      mesh.points.positions.emplace_back(static_cast<float>(radius * std::cos(u)), static_cast<float>(radius * std::sin(u)),
+                                         static_cast<float>(minorRadius * std::sin(v)));
+    }
+  auto index = [&](int i, int j) { return static_cast<std::uint32_t>((i % segments) * rings + (j % rings)); };
+  for (int i = 0; i < segments; ++i)
+    for (int j = 0; j < rings; ++j) {
+      mesh.triangles.push_back({index(i, j), index(i + 1, j), index(i + 1, j + 1)});
+      mesh.triangles.push_back({index(i, j), index(i + 1, j + 1), index(i, j + 1)});
+    }
+  return mesh;
+}
+
+float distanceToTorus(const Vec3f& p, float majorRadius, float minorRadius) {
+  const float ring = std::hypot(p.x(), p.y()) - majorRadius;
+  return std::abs(std::hypot(ring, p.z()) - minorRadius);
+}
+
 std::vector<Vec3f> fibonacciSpherePoints(std::size_t count) {
   std::vector<Vec3f> points;
   const double golden = std::numbers::pi * (3.0 - std::sqrt(5.0));

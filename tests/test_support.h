@@ -40,6 +40,13 @@ namespace apo::test {
 // Outward-facing triangles.
 Scan makeIcosphere(int subdivisions);
 
+// Torus around the z axis (major radius R, minor radius r), a grid of
+// `segments` x `rings` quads split into outward-facing triangles.
+Scan makeTorus(float majorRadius, float minorRadius, int segments, int rings);
+
+// Distance from p to that torus's surface.
+float distanceToTorus(const Vec3f& p, float majorRadius, float minorRadius);
+
 // Points on the unit sphere (Fibonacci lattice), deterministic.
 std::vector<Vec3f> fibonacciSpherePoints(std::size_t count);
 

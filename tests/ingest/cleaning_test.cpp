@@ -98,10 +98,6 @@ TEST(NormaliseNormals, CountsZeroAndNanNormals) {
   EXPECT_EQ(points.normals[0], Vec3f(0, 0, 1));
 }
 
-TEST(VertexNormalsFromTriangles, FlatSquareFacesUp) {
-  for (const Vec3f& n : vertexNormalsFromTriangles(squareOfTwoTriangles())) EXPECT_NEAR((n - Vec3f::UnitZ()).norm(), 0.0f, 1e-6f);
-}
-
 TEST(VoxelRepresentativeMask, OnePointPerOccupiedVoxelClosestToItsCentroid) {
   std::vector<Vec3f> points;
   for (int i = 0; i < 500; ++i)

@@ -1,0 +1,100 @@
+// M to m: edge-collapse simplification and its distance figures.
+#include "core/timing.h"
+#include "ingest/ingest.h"
+#include "reconstruct/cgal_adapters.h"
+#include "reconstruct/reconstruct.h"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+namespace apo {
+namespace {
+
+// The smallest closed triangle mesh.
+constexpr std::uint64_t kMinTargetFaces = 4;
+// Surface samples per side for the Hausdorff and mean distances.
+constexpr std::size_t kDistanceSamples = 100000;
+
+Result<std::uint64_t> targetFaceCount(const Scan& mesh, const SimplifyOptions& options) {
+  if (options.ratio != 0.0) {
+    if (!(options.ratio > 0.0 && options.ratio <= 1.0)) return usageError("--ratio must be in (0, 1], got {}", options.ratio);
+    return std::max<std::uint64_t>(kMinTargetFaces, static_cast<std::uint64_t>(std::llround(options.ratio * mesh.triangles.size())));
+  }
+  if (options.targetFaces < kMinTargetFaces)
+    return usageError("--faces must be at least {}, got {}", kMinTargetFaces, options.targetFaces);
+  return options.targetFaces;
+}
+
+struct OneSided {
+  double max = 0.0, mean = 0.0;
+};
+
+OneSided distancesFromSamples(const Scan& from, const Scan& to) {
+  const auto distances = cgal::pointToMeshDistances(cgal::sampleSurface(from, kDistanceSamples), to);
+  OneSided figures;
+  if (distances.empty()) return figures;
+  figures.max = *std::max_element(distances.begin(), distances.end());
+  figures.mean = std::accumulate(distances.begin(), distances.end(), 0.0) / static_cast<double>(distances.size());
+  return figures;
+}
+
+// Two-sided Hausdorff and mean distances between m and M, as fractions of M's
+// bounding-box diagonal, from area-proportional samples of each surface.
+void measureDistances(const Scan& coarse, const Scan& dense, SimplifyReport& report) {
+  const double diagonal = boundingBox(dense.points.positions).diagonal();
+  if (diagonal <= 0.0) return;
+  const OneSided coarseToDense = distancesFromSamples(coarse, dense);
+  const OneSided denseToCoarse = distancesFromSamples(dense, coarse);
+  report.hausdorff = std::max(coarseToDense.max, denseToCoarse.max) / diagonal;
+  report.meanDistance = 0.5 * (coarseToDense.mean + denseToCoarse.mean) / diagonal;
+}
+
+}  // namespace
+
+std::string policyName(SimplifyPolicy policy) {
+  switch (policy) {
+    case SimplifyPolicy::GarlandHeckbert: return "garland-heckbert";
+    case SimplifyPolicy::LindstromTurk: return "lindstrom-turk";
+  }
+  return "unknown";
+}
+
+Result<Simplification> simplifyMesh(const Scan& mesh, const SimplifyOptions& options) {
+  if (!mesh.isMesh()) return badInput("simplification needs a triangle mesh, got {} points and no triangles", mesh.points.size());
+  auto target = targetFaceCount(mesh, options);
+  if (!target) return target.error();
+  Stopwatch watch;
+  Simplification result;
+  SimplifyReport& report = result.report;
+  report.policy = policyName(options.policy);
+  report.facesIn = mesh.triangles.size();
+  report.targetFaces = *target;
+
+  if (*target >= mesh.triangles.size()) {
+    // Nothing to collapse: m is M, said so rather than refused.
+    spdlog::warn("simplify: target {} faces is not below the input's {}; m is the input mesh", *target,
+                 mesh.triangles.size());
+    report.policy = "none (target not below input)";
+    result.mesh = mesh;
+  } else {
+    auto collapsed = cgal::edgeCollapse(mesh, *target, options.policy);
+    if (!collapsed) return collapsed.error();
+    if (collapsed->repairedVertices > 0)
+      spdlog::warn("simplify: input had non-manifold vertices; {} vertices were split to repair it",
+                   collapsed->repairedVertices);
+    result.mesh = std::move(collapsed->mesh);
+  }
+  dropDegenerateTriangles(result.mesh);
+  dropUnreferencedVertices(result.mesh);
+  result.mesh.points.normals = areaWeightedVertexNormals(result.mesh);
+  report.facesOut = result.mesh.triangles.size();
+  report.quality = measureMesh(result.mesh);
+  measureDistances(result.mesh, mesh, report);
+  report.seconds = watch.seconds();
+  return result;
+}
+
+}  // namespace apo

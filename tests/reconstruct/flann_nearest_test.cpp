@@ -1,0 +1,70 @@
+#include "reconstruct/cgal_adapters.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <random>
+
+namespace apo::flann_adapter {
+namespace {
+
+std::vector<Vec3f> randomPoints(std::size_t count, std::uint32_t seed) {
+  std::mt19937 random(seed);
+  std::uniform_real_distribution<float> coordinate(-1.0f, 1.0f);
+  std::vector<Vec3f> points;
+  for (std::size_t i = 0; i < count; ++i) points.emplace_back(coordinate(random), coordinate(random), coordinate(random));
+  return points;
+}
+
+struct BruteForce {
+  std::uint32_t index = 0;
+  double distance = std::numeric_limits<double>::infinity();
+};
+
+BruteForce nearestByBruteForce(const std::vector<Vec3f>& reference, const Vec3f& query) {
+  BruteForce best;
+  for (std::uint32_t i = 0; i < reference.size(); ++i) {
+    const double d = (reference[i].cast<double>() - query.cast<double>()).norm();
+    if (d < best.distance) best = {i, d};
+  }
+  return best;
+}
+
+TEST(FlannNearest, MatchesBruteForceOnRandomPoints) {
+  const auto reference = randomPoints(5000, 1);
+  const auto queries = randomPoints(2000, 2);
+  const auto distances = nearestDistances(reference, queries);
+  const auto indices = nearestIndices(reference, queries);
+  ASSERT_EQ(distances.size(), queries.size());
+  ASSERT_EQ(indices.size(), queries.size());
+  for (std::size_t q = 0; q < queries.size(); ++q) {
+    const BruteForce expected = nearestByBruteForce(reference, queries[q]);
+    EXPECT_NEAR(distances[q], expected.distance, 1e-6) << q;
+    // The same point, or a tie at the same distance.
+    const double found = (reference[indices[q]].cast<double>() - queries[q].cast<double>()).norm();
+    EXPECT_NEAR(found, expected.distance, 1e-6) << q;
+  }
+}
+
+TEST(FlannNearest, FindsReferencePointsThemselves) {
+  const auto reference = randomPoints(1000, 3);
+  const auto indices = nearestIndices(reference, reference);
+  const auto distances = nearestDistances(reference, reference);
+  for (std::uint32_t i = 0; i < reference.size(); ++i) {
+    EXPECT_EQ(indices[i], i);
+    EXPECT_EQ(distances[i], 0.0f);
+  }
+}
+
+TEST(FlannNearest, EmptyInputs) {
+  const auto points = randomPoints(3, 4);
+  EXPECT_TRUE(nearestDistances(points, {}).empty());
+  const auto distances = nearestDistances({}, points);
+  ASSERT_EQ(distances.size(), 3u);
+  EXPECT_TRUE(std::isinf(distances[0]));
+  EXPECT_EQ(nearestIndices({}, points)[2], std::numeric_limits<std::uint32_t>::max());
+}
+
+}  // namespace
+}  // namespace apo::flann_adapter
