@@ -91,6 +91,10 @@ Result<Simplification> simplifyMesh(const Scan& mesh, const SimplifyOptions& opt
   dropUnreferencedVertices(result.mesh);
   result.mesh.points.normals = areaWeightedVertexNormals(result.mesh);
   report.facesOut = result.mesh.triangles.size();
+  if (static_cast<double>(report.facesOut) > 1.01 * static_cast<double>(report.targetFaces))
+    spdlog::warn("simplify: stopped at {} faces, above the target {}: borders are kept as they are, and this mesh's "
+                 "borders (holes, open edges) alone need that many faces",
+                 report.facesOut, report.targetFaces);
   report.quality = measureMesh(result.mesh);
   measureDistances(result.mesh, mesh, report);
   report.seconds = watch.seconds();
