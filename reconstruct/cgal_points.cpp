@@ -2,40 +2,16 @@
 // an index vector read through a property map so that our arrays stay put.
 #include "reconstruct/cgal_adapters.h"
 
-#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include "ingest/cgal_index_maps.h"
+
 #include <CGAL/compute_average_spacing.h>
 #include <CGAL/grid_simplify_point_set.h>
-#include <CGAL/property_map.h>
 
 #include <algorithm>
 #include <cstdint>
 #include <numeric>
 
 namespace apo::cgal {
-namespace {
-
-using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
-
-// Reads point i of our positions as a CGAL point; CGAL permutes only indices.
-struct PositionMap {
-  using key_type = std::uint32_t;
-  using value_type = Kernel::Point_3;
-  using reference = value_type;
-  using category = boost::readable_property_map_tag;
-  const std::vector<Vec3f>* positions;
-  friend value_type get(const PositionMap& map, key_type i) {
-    const Vec3f& p = (*map.positions)[i];
-    return {p.x(), p.y(), p.z()};
-  }
-};
-
-std::vector<std::uint32_t> allIndices(std::size_t count) {
-  std::vector<std::uint32_t> indices(count);
-  std::iota(indices.begin(), indices.end(), 0u);
-  return indices;
-}
-
-}  // namespace
 
 // Note CGAL's definition: the query point itself is one of the k + 1 points
 // averaged, so the value is (sum of the k nearest distances) / (k + 1). We
@@ -44,9 +20,9 @@ std::vector<std::uint32_t> allIndices(std::size_t count) {
 // CGAL requires k >= 2 (a debug-build precondition), so k = 1 counts as 2.
 double averageSpacing(const std::vector<Vec3f>& points, int k) {
   if (points.size() < 2) return 0.0;
-  const auto indices = allIndices(points.size());
+  const auto indices = cgal_maps::allIndices(points.size());
   return CGAL::compute_average_spacing<CGAL::Parallel_if_available_tag>(
-      indices, static_cast<unsigned int>(std::max(k, 2)), CGAL::parameters::point_map(PositionMap{&points}));
+      indices, static_cast<unsigned int>(std::max(k, 2)), CGAL::parameters::point_map(cgal_maps::PositionMap{&points}));
 }
 
 // CGAL keeps the first index of each cell it meets; std::partition visits the
@@ -55,9 +31,9 @@ double averageSpacing(const std::vector<Vec3f>& points, int k) {
 // (spacing of duplicated points) merges nothing.
 std::vector<char> gridSubsampleMask(const std::vector<Vec3f>& points, double cellSize) {
   if (!(cellSize > 0.0)) return std::vector<char>(points.size(), 1);
-  auto indices = allIndices(points.size());
+  auto indices = cgal_maps::allIndices(points.size());
   const auto firstRemoved =
-      CGAL::grid_simplify_point_set(indices, cellSize, CGAL::parameters::point_map(PositionMap{&points}));
+      CGAL::grid_simplify_point_set(indices, cellSize, CGAL::parameters::point_map(cgal_maps::PositionMap{&points}));
   std::vector<char> keep(points.size(), 0);
   for (auto it = indices.begin(); it != firstRemoved; ++it) keep[*it] = 1;
   return keep;

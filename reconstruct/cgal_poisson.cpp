@@ -7,6 +7,8 @@
 // easily misses a separate object of the scan.
 #include "reconstruct/cgal_adapters.h"
 
+#include "ingest/cgal_index_maps.h"
+
 #include <CGAL/Delaunay_triangulation_3.h>
 #include <CGAL/Delaunay_triangulation_cell_base_with_circumcenter_3.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
@@ -37,6 +39,8 @@ namespace {
 
 using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
 using Point = Kernel::Point_3;
+using cgal_maps::NormalMap;
+using cgal_maps::PositionMap;
 using ImplicitFunction = CGAL::Poisson_reconstruction_function<Kernel>;
 
 // A creation stamp on a triangulation vertex or cell: CGAL's containers then
@@ -76,32 +80,6 @@ constexpr double kMinFacetAngle = 20.0;
 // diagonal, found within this many average spacings of an input point.
 constexpr double kSeedCellsPerDiagonal = 8.0;
 constexpr double kSeedReachSpacings = 3.0;
-
-// Property maps reading our arrays through an index, so CGAL never copies
-// or reorders them.
-struct PositionMap {
-  using key_type = std::uint32_t;
-  using value_type = Point;
-  using reference = value_type;
-  using category = boost::readable_property_map_tag;
-  const std::vector<Vec3f>* positions;
-  friend value_type get(const PositionMap& map, key_type i) {
-    const Vec3f& p = (*map.positions)[i];
-    return {p.x(), p.y(), p.z()};
-  }
-};
-
-struct NormalMap {
-  using key_type = std::uint32_t;
-  using value_type = Kernel::Vector_3;
-  using reference = value_type;
-  using category = boost::readable_property_map_tag;
-  const std::vector<Vec3f>* normals;
-  friend value_type get(const NormalMap& map, key_type i) {
-    const Vec3f& n = (*map.normals)[i];
-    return {n.x(), n.y(), n.z()};
-  }
-};
 
 Status validate(const PointSet& points, double averageSpacing, double distanceSpacings) {
   if (points.size() == 0) return badInput("Poisson reconstruction failed: no points");
@@ -248,8 +226,7 @@ void sortCanonically(std::vector<Triangle>& triangles) {
 }
 
 Result<Scan> reconstruct(const PointSet& points, double spacing, double distanceSpacings, double radiusSpacings) {
-  std::vector<std::uint32_t> indices(points.size());
-  std::iota(indices.begin(), indices.end(), 0u);
+  const auto indices = cgal_maps::allIndices(points.size());
   ImplicitFunction function(indices.begin(), indices.end(), PositionMap{&points.positions},
                             NormalMap{&points.normals});
   if (!function.compute_implicit_function())
