@@ -62,6 +62,7 @@ CommandResult runCommand(const std::string& command) {
 #include <cmath>
 #include <map>
 #include <numbers>
+#include <random>
 
 namespace apo::test {
 
@@ -117,6 +118,14 @@ Scan makeTorus(float majorRadius, float minorRadius, int segments, int rings) {
 float distanceToTorus(const Vec3f& p, float majorRadius, float minorRadius) {
   const float ring = std::hypot(p.x(), p.y()) - majorRadius;
   return std::abs(std::hypot(ring, p.z()) - minorRadius);
+}
+
+std::vector<Vec3f> randomCubePoints(std::size_t count, std::uint64_t seed) {
+  std::mt19937_64 random(seed);
+  std::uniform_real_distribution<float> uniform(-1.0f, 1.0f);
+  std::vector<Vec3f> points(count);
+  for (Vec3f& p : points) p = Vec3f(uniform(random), uniform(random), uniform(random));
+  return points;
 }
 
 std::vector<Vec3f> fibonacciSpherePoints(std::size_t count) {

@@ -47,6 +47,9 @@ Scan makeTorus(float majorRadius, float minorRadius, int segments, int rings);
 // Distance from p to that torus's surface.
 float distanceToTorus(const Vec3f& p, float majorRadius, float minorRadius);
 
+// Points uniformly random in the cube [-1, 1]^3, repeatable for a seed.
+std::vector<Vec3f> randomCubePoints(std::size_t count, std::uint64_t seed);
+
 // Points on the unit sphere (Fibonacci lattice), deterministic.
 std::vector<Vec3f> fibonacciSpherePoints(std::size_t count);
 

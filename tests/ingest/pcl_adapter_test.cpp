@@ -10,16 +10,8 @@
 namespace apo::pcl_adapter {
 namespace {
 
-std::vector<Vec3f> randomCloud(std::size_t count, unsigned seed) {
-  std::mt19937 random(seed);
-  std::uniform_real_distribution<float> uniform(-1.0f, 1.0f);
-  std::vector<Vec3f> points(count);
-  for (Vec3f& p : points) p = Vec3f(uniform(random), uniform(random), uniform(random));
-  return points;
-}
-
 TEST(NearestNeighbours, MatchBruteForce) {
-  const auto points = randomCloud(2000, 1);
+  const auto points = test::randomCubePoints(2000, 1);
   const std::vector<std::uint32_t> queries = {0, 17, 999, 1999};
   const auto neighbours = nearestNeighbours(points, queries, 5);
   for (std::size_t q = 0; q < queries.size(); ++q) {
@@ -34,8 +26,8 @@ TEST(NearestNeighbours, MatchBruteForce) {
 }
 
 TEST(NearestInReference, MatchesBruteForce) {
-  const auto reference = randomCloud(500, 2);
-  const auto queries = randomCloud(300, 3);
+  const auto reference = test::randomCubePoints(500, 2);
+  const auto queries = test::randomCubePoints(300, 3);
   const auto nearest = nearestInReference(reference, queries);
   for (std::size_t q = 0; q < queries.size(); ++q) {
     std::size_t best = 0;
@@ -46,7 +38,7 @@ TEST(NearestInReference, MatchesBruteForce) {
 }
 
 TEST(StatisticalOutlierKeepMask, DropsFarPointsOnly) {
-  auto points = randomCloud(3000, 4);
+  auto points = test::randomCubePoints(3000, 4);
   points.emplace_back(20.0f, 20.0f, 20.0f);
   points.emplace_back(-30.0f, 0.0f, 0.0f);
   const auto keep = statisticalOutlierKeepMask(points, 8, 3.0);

@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include "tests/test_support.h"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -11,14 +13,6 @@
 
 namespace apo::cgal {
 namespace {
-
-std::vector<Vec3f> randomCloud(std::size_t count, std::uint64_t seed) {
-  std::mt19937_64 random(seed);
-  std::uniform_real_distribution<float> uniform(-1.0f, 1.0f);
-  std::vector<Vec3f> points;
-  for (std::size_t i = 0; i < count; ++i) points.emplace_back(uniform(random), uniform(random), uniform(random));
-  return points;
-}
 
 // CGAL's definition: the k nearest other points' distances summed, divided by
 // k + 1 (the query point counts as its own nearest neighbour, at distance 0).
@@ -37,12 +31,12 @@ double bruteForceSpacing(const std::vector<Vec3f>& points, int k) {
 }
 
 TEST(AverageSpacing, MatchesBruteForceOnARandomCloud) {
-  const auto points = randomCloud(400, 7);
+  const auto points = test::randomCubePoints(400, 7);
   for (int k : {2, 6, 12}) EXPECT_NEAR(averageSpacing(points, k), bruteForceSpacing(points, k), 1e-6) << "k=" << k;
 }
 
 TEST(AverageSpacing, ScalesWithTheCloud) {
-  auto points = randomCloud(400, 8);
+  auto points = test::randomCubePoints(400, 8);
   const double spacing = averageSpacing(points, 6);
   for (Vec3f& p : points) p *= 3.0f;
   EXPECT_NEAR(averageSpacing(points, 6), 3.0 * spacing, 1e-6);
@@ -60,7 +54,7 @@ Cell cellOf(const Vec3f& p, double size) {
 }
 
 TEST(GridSubsampleMask, KeepsExactlyOnePointPerOccupiedCell) {
-  const auto points = randomCloud(20000, 9);
+  const auto points = test::randomCubePoints(20000, 9);
   const double size = 0.13;
   const auto keep = gridSubsampleMask(points, size);
   ASSERT_EQ(keep.size(), points.size());
@@ -72,7 +66,7 @@ TEST(GridSubsampleMask, KeepsExactlyOnePointPerOccupiedCell) {
 }
 
 TEST(GridSubsampleMask, IsDeterministic) {
-  const auto points = randomCloud(5000, 10);
+  const auto points = test::randomCubePoints(5000, 10);
   EXPECT_EQ(gridSubsampleMask(points, 0.2), gridSubsampleMask(points, 0.2));
 }
 

@@ -12,22 +12,13 @@ namespace {
 // CGAL's own Delaunay-ball radius bound (30 spacings): coarse, so fast.
 constexpr double kCgalDefaultRadius = 30.0;
 
-struct Shape {
-  const char* name;
-  Scan (*truth)();
-  float (*distance)(const Vec3f&);
-  Vec3f (*outward)(const Vec3f&);
-  int raysPerSide;  // 10 views: about 21K points on either shape
-  std::int64_t euler;
-};
+const test::ScannedShape kSphere = test::scannedSphere(52);  // about 21K points
+const test::ScannedShape kTorus = test::scannedTorus(68);
 
-const Shape kSphere{"sphere", test::sphereTruth, test::distanceToUnitSphere, test::sphereOutward, 52, 2};
-const Shape kTorus{"torus", test::torusTruth, test::distanceToTestTorus, test::torusOutward, 68, 0};
-
-class PoissonOnScans : public ::testing::TestWithParam<Shape> {};
+class PoissonOnScans : public ::testing::TestWithParam<test::ScannedShape> {};
 
 TEST_P(PoissonOnScans, IsAccurateClosedAndOutward) {
-  const Shape& shape = GetParam();
+  const test::ScannedShape& shape = GetParam();
   const Scan truth = shape.truth();
   const PointSet points = test::scannedPoints(truth, 10, shape.raysPerSide);
   ASSERT_GT(points.size(), 18000u);

@@ -10,45 +10,19 @@
 namespace apo::cgal {
 namespace {
 
-struct Shape {
-  const char* name;
-  Scan (*truth)();
-  float (*distance)(const Vec3f&);
-  Vec3f (*outward)(const Vec3f&);
-  int raysPerSide;  // 10 views: about 28K points on either shape
-  std::int64_t euler;
-};
+const test::ScannedShape kSphere = test::scannedSphere(60);  // about 28K points
+const test::ScannedShape kTorus = test::scannedTorus(80);
 
-const Shape kSphere{"sphere", test::sphereTruth, test::distanceToUnitSphere, test::sphereOutward, 60, 2};
-const Shape kTorus{"torus", test::torusTruth, test::distanceToTestTorus, test::torusOutward, 80, 0};
-
-class ScaleSpaceOnScans : public ::testing::TestWithParam<Shape> {};
+class ScaleSpaceOnScans : public ::testing::TestWithParam<test::ScannedShape> {};
 
 TEST_P(ScaleSpaceOnScans, IsAccurateManifoldAndOnTheOriginalPoints) {
-  const Shape& shape = GetParam();
-  const Scan truth = shape.truth();
-  const PointSet points = test::scannedPoints(truth, 10, shape.raysPerSide);
+  const test::ScannedShape& shape = GetParam();
+  const PointSet points = test::scannedPoints(shape.truth(), 10, shape.raysPerSide);
   ASSERT_GT(points.size(), 20000u);
-
   auto mesh = scaleSpaceReconstruct(points.positions, averageSpacing(points.positions, 6), 4.0);
   ASSERT_TRUE(mesh.ok()) << mesh.error().message;
   ASSERT_EQ(mesh->points.positions, points.positions);  // unsmoothed, input order
-
-  const Scan main = test::largestComponent(*mesh);
-  const test::Topology all = test::topologyOf(*mesh), topology = test::topologyOf(main);
-  EXPECT_GT(static_cast<double>(topology.triangles), 0.99 * static_cast<double>(all.triangles));
-  EXPECT_GT(static_cast<double>(topology.vertices), 0.99 * static_cast<double>(points.size()));
-
-  const double diagonal = boundingBox(truth.points.positions).diagonal();
-  EXPECT_LT(test::meanVertexDistance(main, shape.distance) / diagonal, 0.005);
-  EXPECT_EQ(topology.nonManifoldEdges, 0u);
-  EXPECT_EQ(topology.inconsistentEdges, 0u);
-  EXPECT_LE(topology.boundaryEdges, 0.002 * static_cast<double>(topology.edges));
-  if (topology.boundaryEdges == 0) {
-    EXPECT_EQ(topology.euler(), shape.euler);
-  }
-  const double outward = test::outwardAreaFraction(main, shape.outward);
-  EXPECT_TRUE(outward > 0.999 || outward < 0.001) << outward;
+  test::expectAccurateManifoldMesh(*mesh, points, shape);
 }
 
 INSTANTIATE_TEST_SUITE_P(Shapes, ScaleSpaceOnScans, ::testing::Values(kSphere, kTorus),

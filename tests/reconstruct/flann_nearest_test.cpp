@@ -2,20 +2,14 @@
 
 #include <gtest/gtest.h>
 
+#include "tests/test_support.h"
+
 #include <cmath>
 #include <limits>
 #include <random>
 
 namespace apo::flann_adapter {
 namespace {
-
-std::vector<Vec3f> randomPoints(std::size_t count, std::uint32_t seed) {
-  std::mt19937 random(seed);
-  std::uniform_real_distribution<float> coordinate(-1.0f, 1.0f);
-  std::vector<Vec3f> points;
-  for (std::size_t i = 0; i < count; ++i) points.emplace_back(coordinate(random), coordinate(random), coordinate(random));
-  return points;
-}
 
 struct BruteForce {
   std::uint32_t index = 0;
@@ -32,8 +26,8 @@ BruteForce nearestByBruteForce(const std::vector<Vec3f>& reference, const Vec3f&
 }
 
 TEST(FlannNearest, MatchesBruteForceOnRandomPoints) {
-  const auto reference = randomPoints(5000, 1);
-  const auto queries = randomPoints(2000, 2);
+  const auto reference = test::randomCubePoints(5000, 1);
+  const auto queries = test::randomCubePoints(2000, 2);
   const auto distances = nearestDistances(reference, queries);
   const auto indices = nearestIndices(reference, queries);
   ASSERT_EQ(distances.size(), queries.size());
@@ -48,7 +42,7 @@ TEST(FlannNearest, MatchesBruteForceOnRandomPoints) {
 }
 
 TEST(FlannNearest, FindsReferencePointsThemselves) {
-  const auto reference = randomPoints(1000, 3);
+  const auto reference = test::randomCubePoints(1000, 3);
   const auto indices = nearestIndices(reference, reference);
   const auto distances = nearestDistances(reference, reference);
   for (std::uint32_t i = 0; i < reference.size(); ++i) {
@@ -58,7 +52,7 @@ TEST(FlannNearest, FindsReferencePointsThemselves) {
 }
 
 TEST(FlannNearest, EmptyInputs) {
-  const auto points = randomPoints(3, 4);
+  const auto points = test::randomCubePoints(3, 4);
   EXPECT_TRUE(nearestDistances(points, {}).empty());
   const auto distances = nearestDistances({}, points);
   ASSERT_EQ(distances.size(), 3u);

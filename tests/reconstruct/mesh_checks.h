@@ -165,4 +165,45 @@ inline std::size_t trianglesMissingFrom(const Scan& a, const Scan& b) {
   return missing;
 }
 
+// An analytic shape, scanned by the virtual scanner for the method tests.
+struct ScannedShape {
+  const char* name;
+  Scan (*truth)();
+  float (*distance)(const Vec3f&);
+  Vec3f (*outward)(const Vec3f&);
+  int raysPerSide;  // per view, 10 views
+  std::int64_t euler;
+};
+
+inline ScannedShape scannedSphere(int raysPerSide) {
+  return {"sphere", sphereTruth, distanceToUnitSphere, sphereOutward, raysPerSide, 2};
+}
+inline ScannedShape scannedTorus(int raysPerSide) {
+  return {"torus", torusTruth, distanceToTestTorus, torusOutward, raysPerSide, 0};
+}
+
+// What the advancing-front meshers (advancing front, scale space) must give
+// on a scan of `shape`: a main component carrying nearly every triangle and
+// point, within 0.5% of the diagonal of the analytic surface, manifold,
+// closed but for a few small holes (then the shape's Euler characteristic),
+// and consistently oriented in one direction or the other.
+inline void expectAccurateManifoldMesh(const Scan& mesh, const PointSet& points, const ScannedShape& shape) {
+  const Scan main = largestComponent(mesh);
+  const Topology all = topologyOf(mesh), topology = topologyOf(main);
+  EXPECT_GT(static_cast<double>(topology.triangles), 0.99 * static_cast<double>(all.triangles));
+  EXPECT_GT(static_cast<double>(topology.vertices), 0.99 * static_cast<double>(points.size()));
+
+  const double diagonal = boundingBox(shape.truth().points.positions).diagonal();
+  EXPECT_LT(meanVertexDistance(main, shape.distance) / diagonal, 0.005);
+  EXPECT_EQ(topology.nonManifoldEdges, 0u);
+  EXPECT_EQ(topology.inconsistentEdges, 0u);
+  // Each small hole CGAL may leave raises V - E + F by one.
+  EXPECT_LE(topology.boundaryEdges, 0.002 * static_cast<double>(topology.edges));
+  if (topology.boundaryEdges == 0) {
+    EXPECT_EQ(topology.euler(), shape.euler);
+  }
+  const double outward = outwardAreaFraction(main, shape.outward);
+  EXPECT_TRUE(outward > 0.999 || outward < 0.001) << outward;
+}
+
 }  // namespace apo::test
