@@ -42,6 +42,16 @@ int guarded(Body&& body) {
   }
 }
 
+// A stage's error about an input, prefixed with the input's path.
+Error aboutInput(const fs::path& input, const Error& error) { return {error.kind, input.string() + ": " + error.message}; }
+
+// A stage's two outputs: its mesh as binary PLY and its report as JSON.
+Status writeMeshAndReport(const fs::path& meshPath, const Scan& mesh, const fs::path& reportPath,
+                          const std::string& reportJson) {
+  APO_RETURN_IF_ERROR(writePly(meshPath, mesh));
+  return writeFileAtomically(reportPath, reportJson);
+}
+
 struct IngestCommand {
   fs::path input;
   fs::path outDir;
@@ -88,13 +98,9 @@ int runReconstruct(const ReconstructCommand& command) {
   auto scan = readScan(command.input);
   if (!scan) return reportFailure(scan.error());
   auto reconstruction = reconstructScan(*scan, command.options);
-  if (!reconstruction) {
-    const Error& error = reconstruction.error();
-    return reportFailure({error.kind, command.input.string() + ": " + error.message});
-  }
-  if (Status written = writePly(command.outDir / "M.ply", reconstruction->mesh); !written.ok())
-    return reportFailure(written.error());
-  if (Status written = writeFileAtomically(command.outDir / "reconstruct.json", reconstructReportJson(reconstruction->report));
+  if (!reconstruction) return reportFailure(aboutInput(command.input, reconstruction.error()));
+  if (Status written = writeMeshAndReport(command.outDir / "M.ply", reconstruction->mesh, command.outDir / "reconstruct.json",
+                                          reconstructReportJson(reconstruction->report));
       !written.ok())
     return reportFailure(written.error());
   const ReconstructReport& report = reconstruction->report;
@@ -116,12 +122,9 @@ int runSimplify(SimplifyCommand command) {
   auto mesh = readScan(command.input);
   if (!mesh) return reportFailure(mesh.error());
   auto simplified = simplifyMesh(*mesh, command.options);
-  if (!simplified) {
-    const Error& error = simplified.error();
-    return reportFailure({error.kind, command.input.string() + ": " + error.message});
-  }
-  if (Status written = writePly(command.outDir / "m.ply", simplified->mesh); !written.ok()) return reportFailure(written.error());
-  if (Status written = writeFileAtomically(command.outDir / "simplify.json", simplifyReportJson(simplified->report));
+  if (!simplified) return reportFailure(aboutInput(command.input, simplified.error()));
+  if (Status written = writeMeshAndReport(command.outDir / "m.ply", simplified->mesh, command.outDir / "simplify.json",
+                                          simplifyReportJson(simplified->report));
       !written.ok())
     return reportFailure(written.error());
   const SimplifyReport& report = simplified->report;
