@@ -142,14 +142,20 @@ void addReconstructCommand(CLI::App& app, int& exitCode) {
       ->required();
   sub->add_option("-o,--out", command->outDir, "Output folder (M.ply, reconstruct.json)")->required();
   ReconstructOptions& o = command->options;
-  const std::map<std::string, ReconstructionMethod> methods = {{"poisson", ReconstructionMethod::Poisson},
+  const std::map<std::string, ReconstructionMethod> methods = {{"auto", ReconstructionMethod::Auto},
+                                                               {"poisson", ReconstructionMethod::Poisson},
                                                                {"advancing-front", ReconstructionMethod::AdvancingFront},
                                                                {"scale-space", ReconstructionMethod::ScaleSpace}};
-  sub->add_option("--method", o.method, "poisson (closed objects), advancing-front (open scans, fast), scale-space")
+  sub->add_option("--method", o.method,
+                  "auto (Poisson for closed objects, advancing front for open scans), poisson, advancing-front, "
+                  "scale-space")
       ->transform(CLI::CheckedTransformer(methods, CLI::ignore_case))
-      ->default_str("poisson");
-  sub->add_option("--max-points", o.maxPoints, "Reconstruct from a density-aware subsample above this (0: never)")
-      ->capture_default_str();
+      ->default_str("auto");
+  sub->add_option_function<std::uint64_t>(
+         "--max-points", [&o](const std::uint64_t& value) { o.maxPoints = value; },
+         "Reconstruct from a density-aware subsample above this many points (0: never)")
+      ->default_str(fmt::format("{} for poisson, {} for the others", defaultMaxPoints(ReconstructionMethod::Poisson),
+                                defaultMaxPoints(ReconstructionMethod::AdvancingFront)));
   sub->add_option("--trim", o.trim, "Poisson: drop triangles farther than this many average spacings from the points")
       ->capture_default_str();
   sub->add_option("--radius-ratio", o.radiusRatioBound,

@@ -52,10 +52,16 @@ Result<Scan> scaleSpaceReconstruct(const std::vector<Vec3f>& points, double aver
 // Surface_mesh_simplification edge collapse until at most `targetFaces`
 // faces remain, borders constrained. Non-manifold input is repaired first
 // (polygon soup orientation splits non-manifold vertices); `repairedVertices`
-// counts the vertices added. Deterministic.
+// counts the vertices added. Small holes (a few spacings wide, see
+// kMaxFilledHoleEdges) are triangulated first, counted in `filledHoles`.
+// When the borders alone hold more faces than the
+// target, a second pass collapses border edges too (Lindstrom-Turk, whose
+// boundary term keeps their shape); `bordersCollapsed` says so. Deterministic.
 struct EdgeCollapseResult {
   Scan mesh;
   std::uint64_t repairedVertices = 0;
+  std::uint64_t filledHoles = 0;
+  bool bordersCollapsed = false;
 };
 Result<EdgeCollapseResult> edgeCollapse(const Scan& mesh, std::uint64_t targetFaces, SimplifyPolicy policy);
 

@@ -1,11 +1,13 @@
 #include "reconstruct/cgal_adapters.h"
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Polygon_mesh_processing/connected_components.h>
 #include <CGAL/Polygon_mesh_processing/orient_polygon_soup.h>
 #include <CGAL/Polygon_mesh_processing/polygon_soup_to_polygon_mesh.h>
 #include <CGAL/Polygon_mesh_processing/repair_degeneracies.h>
 #include <CGAL/Polygon_mesh_processing/repair_polygon_soup.h>
 #include <CGAL/Polygon_mesh_processing/shape_predicates.h>
+#include <CGAL/Polygon_mesh_processing/triangulate_hole.h>
 #include <CGAL/Surface_mesh.h>
 #include <CGAL/Surface_mesh_simplification/Policies/Edge_collapse/Constrained_placement.h>
 #include <CGAL/Surface_mesh_simplification/Policies/Edge_collapse/GarlandHeckbert_plane_policies.h>
@@ -199,6 +201,82 @@ void collapseWithPolicy(Mesh& mesh, std::size_t targetFaces, SimplifyPolicy poli
   }
 }
 
+// Scan meshes are riddled with small holes (missing returns, trimmed bridges);
+// each would pin its border vertices in m. Holes with at most this many
+// border edges are closed by a plain triangulation before collapsing: a few
+// spacings wide, the patch stays close to the surface around it.
+constexpr std::size_t kMaxFilledHoleEdges = 32;
+
+std::size_t borderCycleLength(const Mesh& mesh, Mesh::Halfedge_index start) {
+  std::size_t length = 0;
+  for (Mesh::Halfedge_index h : CGAL::halfedges_around_face(start, mesh)) {
+    (void)h;
+    ++length;
+  }
+  return length;
+}
+
+struct BorderCycle {
+  Mesh::Halfedge_index start;
+  std::size_t length;
+  std::size_t component;
+};
+
+// Every border cycle once, in halfedge index order (so the result repeats),
+// with the connected component it bounds.
+std::vector<BorderCycle> borderCycles(const Mesh& mesh, std::size_t& componentCount) {
+  std::vector<std::size_t> faceComponent(mesh.number_of_faces());
+  const auto componentMap = CGAL::make_property_map(faceComponent);
+  componentCount = PMP::connected_components(mesh, componentMap);
+  std::vector<BorderCycle> cycles;
+  std::vector<char> seen(mesh.number_of_halfedges(), 0);
+  for (const Mesh::Halfedge_index h : mesh.halfedges()) {
+    if (!mesh.is_border(h) || seen[h]) continue;
+    for (Mesh::Halfedge_index g : CGAL::halfedges_around_face(h, mesh)) seen[g] = 1;
+    cycles.push_back({h, borderCycleLength(mesh, h), faceComponent[mesh.face(mesh.opposite(h))]});
+  }
+  return cycles;
+}
+
+// Fills the small holes; the longest border of each component is its outer
+// edge, never a hole (a lone triangle or a small disk stays open). Returns
+// how many were filled.
+std::uint64_t fillSmallHoles(Mesh& mesh) {
+  std::size_t componentCount = 0;
+  const std::vector<BorderCycle> cycles = borderCycles(mesh, componentCount);
+  constexpr std::size_t none = std::numeric_limits<std::size_t>::max();
+  std::vector<std::size_t> outer(componentCount, none);
+  for (std::size_t i = 0; i < cycles.size(); ++i) {
+    std::size_t& o = outer[cycles[i].component];
+    if (o == none || cycles[i].length > cycles[o].length) o = i;
+  }
+  std::uint64_t filled = 0;
+  std::vector<Mesh::Face_index> patch;
+  for (std::size_t i = 0; i < cycles.size(); ++i) {
+    if (cycles[i].length > kMaxFilledHoleEdges || outer[cycles[i].component] == i) continue;
+    patch.clear();
+    PMP::triangulate_hole(mesh, cycles[i].start, std::back_inserter(patch));
+    filled += patch.empty() ? 0 : 1;
+  }
+  return filled;
+}
+
+// Border edges free: Garland-Heckbert's plane quadrics have no border term
+// and would pull borders inwards, Lindstrom-Turk's boundary preservation
+// keeps the border's shape.
+void collapseBordersToo(Mesh& mesh, std::size_t targetFaces) {
+  using Placement = SMS::LindstromTurk_placement<Mesh>;
+  SMS::edge_collapse(mesh, FaceCountStop{&mesh, targetFaces},
+                     CGAL::parameters::get_cost(SMS::LindstromTurk_cost<Mesh>())
+                         .get_placement(FloatRoundedPlacement<Placement>(Placement()))
+                         .filter(NoDegenerateTriangleFilter{}));
+}
+
+// Within 1% of the target counts as reached (the tolerance).
+bool aboveTarget(const Mesh& mesh, std::size_t targetFaces) {
+  return static_cast<double>(mesh.number_of_faces()) > 1.01 * static_cast<double>(targetFaces);
+}
+
 std::size_t countDegenerateFaces(const Mesh& mesh) {
   std::size_t count = 0;
   for (const Mesh::Face_index f : mesh.faces())
@@ -236,7 +314,14 @@ Result<EdgeCollapseResult> simplify(const Scan& input, std::uint64_t targetFaces
   EdgeCollapseResult result;
   Result<Mesh> mesh = manifoldMesh(*soup, result.repairedVertices);
   if (!mesh) return mesh.error();
-  if (mesh->number_of_faces() > targetFaces) collapseWithPolicy(*mesh, targetFaces, policy);
+  if (mesh->number_of_faces() > targetFaces) {
+    result.filledHoles = fillSmallHoles(*mesh);
+    collapseWithPolicy(*mesh, targetFaces, policy);
+  }
+  if (aboveTarget(*mesh, targetFaces)) {
+    collapseBordersToo(*mesh, targetFaces);
+    result.bordersCollapsed = true;
+  }
   // The filter keeps collapses from making degenerate faces, but the input may
   // bring its own (ingest drops exact ones; slivers can survive).
   if (countDegenerateFaces(*mesh) > 0) PMP::remove_degenerate_faces(*mesh);

@@ -30,7 +30,8 @@ Status validateOptions(const ReconstructOptions& o) {
   if (!(o.minComponent >= 0.0 && o.minComponent < 1.0))
     return usageError("--min-component must be in [0, 1), got {}", o.minComponent);
   if (o.spacingNeighbours < 2) return usageError("--spacing-k must be at least 2, got {}", o.spacingNeighbours);
-  if (o.maxPoints != 0 && o.maxPoints < 1000) return usageError("--max-points must be 0 (no limit) or at least 1000");
+  if (o.maxPoints && *o.maxPoints != 0 && *o.maxPoints < 1000)
+    return usageError("--max-points must be 0 (no limit) or at least 1000, got {}", *o.maxPoints);
   if (!(o.poissonRadius > 0.0)) return usageError("--poisson-radius must be positive, got {}", o.poissonRadius);
   if (!(o.poissonSpacing >= 0.0) || !(o.scaleSpaceScale >= 0.0))
     return usageError("--poisson-distance and --scale must be >= 0 (0: derived from the data)");
@@ -206,8 +207,16 @@ void measurePointDistances(const PointSet& input, const Scan& mesh, ReconstructR
   report.pointToMeshP95 = *p95 / report.quality.diagonal;
 }
 
-Result<Scan> runMethod(const PointSet& points, double spacing, const ReconstructOptions& options) {
-  switch (options.method) {
+ReconstructionMethod chooseMethod(ReconstructionMethod requested, double imbalance) {
+  if (requested != ReconstructionMethod::Auto) return requested;
+  return imbalance < kClosedImbalance ? ReconstructionMethod::Poisson : ReconstructionMethod::AdvancingFront;
+}
+
+Result<Scan> runMethod(ReconstructionMethod method, const PointSet& points, double spacing,
+                       const ReconstructOptions& options) {
+  switch (method) {
+    case ReconstructionMethod::Auto:
+      break;
     case ReconstructionMethod::Poisson:
       return cgal::poissonReconstruct(points, spacing, options.poissonSpacing > 0 ? options.poissonSpacing : 0.375,
                                       options.poissonRadius, options.seed);
@@ -216,13 +225,24 @@ Result<Scan> runMethod(const PointSet& points, double spacing, const Reconstruct
     case ReconstructionMethod::ScaleSpace:
       return cgal::scaleSpaceReconstruct(points.positions, spacing, options.scaleSpaceScale > 0 ? options.scaleSpaceScale : 4.0);
   }
-  return internalError("unknown reconstruction method {}", static_cast<int>(options.method));
+  return internalError("no reconstruction method chosen ({})", methodName(method));
 }
 
 }  // namespace
 
+double normalImbalance(const PointSet& points) {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (const Vec3f& n : points.normals) sum += n.cast<double>().normalized();
+  return points.size() > 0 ? sum.norm() / static_cast<double>(points.size()) : 0.0;
+}
+
+std::uint64_t defaultMaxPoints(ReconstructionMethod method) {
+  return method == ReconstructionMethod::AdvancingFront || method == ReconstructionMethod::ScaleSpace ? 150000 : 50000;
+}
+
 std::string methodName(ReconstructionMethod method) {
   switch (method) {
+    case ReconstructionMethod::Auto: return "auto";
     case ReconstructionMethod::Poisson: return "poisson";
     case ReconstructionMethod::AdvancingFront: return "advancing-front";
     case ReconstructionMethod::ScaleSpace: return "scale-space";
@@ -236,27 +256,35 @@ Result<Reconstruction> reconstructSurface(const PointSet& input, const Reconstru
   Stopwatch watch;
   Reconstruction result;
   ReconstructReport& report = result.report;
-  report.method = methodName(options.method);
   report.pointsIn = input.size();
 
+  // The imbalance of all points decides the method, whose default bounds the
+  // subsample.
+  report.normalImbalance = normalImbalance(input);
+  const ReconstructionMethod method = chooseMethod(options.method, report.normalImbalance);
+  const std::uint64_t maxPoints = options.maxPoints.value_or(defaultMaxPoints(method));
   PointSet subsampled;
-  const bool subsample = options.maxPoints != 0 && input.size() > options.maxPoints;
+  const bool subsample = maxPoints != 0 && input.size() > maxPoints;
   if (subsample) {
-    subsampled = densityAwareSubsample(input, options.maxPoints, options.spacingNeighbours);
-    spdlog::info("reconstruct: {} points subsampled to {} (--max-points {})", input.size(), subsampled.size(),
-                 options.maxPoints);
+    subsampled = densityAwareSubsample(input, maxPoints, options.spacingNeighbours);
+    spdlog::info("reconstruct: {} points subsampled to {} (--max-points {})", input.size(), subsampled.size(), maxPoints);
   }
   const PointSet& points = subsample ? subsampled : input;
   report.pointsUsed = points.size();
   report.averageSpacing = cgal::averageSpacing(points.positions, options.spacingNeighbours);
 
-  auto mesh = runMethod(points, report.averageSpacing, options);
+  report.method = methodName(method);
+  if (options.method == ReconstructionMethod::Auto)
+    spdlog::info("reconstruct: mean normal length {:.3f} ({} {}): {}", report.normalImbalance,
+                 report.normalImbalance < kClosedImbalance ? "below" : "at or above", kClosedImbalance,
+                 report.normalImbalance < kClosedImbalance ? "closed object" : "open scan", report.method);
+  auto mesh = runMethod(method, points, report.averageSpacing, options);
   if (!mesh) return mesh.error();
   Scan& M = result.mesh;
   M = std::move(mesh).value();
   spdlog::info("reconstruct: {} produced {} triangles", report.method, M.triangles.size());
 
-  const Removal removed = options.method == ReconstructionMethod::Poisson
+  const Removal removed = method == ReconstructionMethod::Poisson
                               ? trimFarFromSamples(M, points.positions, options.trim * report.averageSpacing)
                               : dropBridgingTriangles(M, options.radiusRatioBound * report.averageSpacing);
   report.trimmedTriangles = removed.triangles;

@@ -8,19 +8,24 @@
 #include "core/geometry.h"
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
 namespace apo {
 
-enum class ReconstructionMethod { Poisson, AdvancingFront, ScaleSpace };
-std::string methodName(ReconstructionMethod method);  // "poisson", ...
+// Auto: Poisson for closed objects, advancing front for open scans, told
+// apart by the balance of the point normals (see closedSurfaceLikelihood).
+enum class ReconstructionMethod { Auto, Poisson, AdvancingFront, ScaleSpace };
+std::string methodName(ReconstructionMethod method);  // "auto", "poisson", ...
 
 struct ReconstructOptions {
-  ReconstructionMethod method = ReconstructionMethod::Poisson;
+  ReconstructionMethod method = ReconstructionMethod::Auto;
   // Above this many points, reconstruct from a density-aware subsample
-  // (CGAL grid simplification); 0 means never subsample.
-  std::uint64_t maxPoints = 300000;
+  // (CGAL grid simplification); 0 means never subsample. Unset: the method's
+  // default (defaultMaxPoints), measured so that a 1M-point scan reconstructs
+  // in well under a minute on 2 cores (docs/benchmarks.md).
+  std::optional<std::uint64_t> maxPoints;
   // Poisson: drop triangles farther than trim x average spacing from the
   // nearest input point (Poisson closes holes with invented surface).
   double trim = 3.0;
@@ -54,7 +59,8 @@ struct MeshQuality {
 };
 
 struct ReconstructReport {
-  std::string method;
+  std::string method;          // the method that ran (never "auto")
+  double normalImbalance = 0;  // what --method auto decided on, see below
   std::uint64_t pointsIn = 0, pointsUsed = 0;  // pointsUsed < pointsIn when subsampled
   double averageSpacing = 0.0;                 // of the points used
   std::uint64_t trimmedTriangles = 0;
@@ -71,6 +77,16 @@ struct Reconstruction {
   Scan mesh;  // M, with unit vertex normals
   ReconstructReport report;
 };
+
+// Length of the mean unit normal of the points: near 0 for a closed surface
+// (the normals of a closed surface integrate to zero), near 1 for a
+// one-sided scan whose normals all face the sensor. --method auto picks
+// Poisson below kClosedImbalance and advancing front above.
+double normalImbalance(const PointSet& points);
+inline constexpr double kClosedImbalance = 0.3;
+
+// CGAL Poisson costs about 0.4 ms per point here, advancing front a tenth.
+std::uint64_t defaultMaxPoints(ReconstructionMethod method);
 
 // Reconstructs M from points with oriented normals. BadInput when there are
 // too few points, no normals, or the points are all on a plane (Poisson), and
@@ -93,6 +109,10 @@ struct SimplifyOptions {
 struct SimplifyReport {
   std::string policy;
   std::uint64_t facesIn = 0, facesOut = 0, targetFaces = 0;
+  // Borders are kept unless they alone hold more faces than the target; then
+  // border edges collapse too, in a second, shape-keeping pass.
+  bool bordersCollapsed = false;
+  std::uint64_t filledHoles = 0;  // small holes of M closed before collapsing
   // Two-sided Hausdorff and mean distances between m and M, as fractions of
   // M's bounding-box diagonal.
   double hausdorff = 0.0, meanDistance = 0.0;

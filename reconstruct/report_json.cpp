@@ -24,6 +24,7 @@ std::string reconstructReportJson(const ReconstructReport& r) {
   nlohmann::ordered_json json;
   json["format_version"] = 1;
   json["method"] = r.method;
+  json["normal_imbalance"] = r.normalImbalance;
   json["points"] = {{"in", r.pointsIn}, {"used", r.pointsUsed}, {"subsampled", r.pointsUsed < r.pointsIn}};
   json["average_spacing"] = r.averageSpacing;
   json["trimmed"] = {{"triangles", r.trimmedTriangles}, {"area", r.trimmedArea}};
@@ -39,6 +40,8 @@ std::string simplifyReportJson(const SimplifyReport& r) {
   json["format_version"] = 1;
   json["policy"] = r.policy;
   json["faces"] = {{"in", r.facesIn}, {"target", r.targetFaces}, {"out", r.facesOut}};
+  json["filled_holes"] = r.filledHoles;
+  json["borders_collapsed"] = r.bordersCollapsed;
   json["distance_to_input"] = {{"hausdorff", r.hausdorff}, {"mean", r.meanDistance}, {"unit", "bbox_diagonal"}};
   json["mesh"] = qualityJson(r.quality);
   json["seconds"] = r.seconds;

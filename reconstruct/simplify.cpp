@@ -85,6 +85,13 @@ Result<Simplification> simplifyMesh(const Scan& mesh, const SimplifyOptions& opt
     if (collapsed->repairedVertices > 0)
       spdlog::warn("simplify: input had non-manifold vertices; {} vertices were split to repair it",
                    collapsed->repairedVertices);
+    report.bordersCollapsed = collapsed->bordersCollapsed;
+    report.filledHoles = collapsed->filledHoles;
+    if (report.filledHoles > 0) spdlog::info("simplify: {} small holes of M closed before collapsing", report.filledHoles);
+    if (collapsed->bordersCollapsed)
+      spdlog::warn("simplify: this mesh's borders (holes, open edges) alone hold more than {} faces; border edges "
+                   "were collapsed too, keeping their shape (Lindstrom-Turk)",
+                   report.targetFaces);
     result.mesh = std::move(collapsed->mesh);
   }
   dropDegenerateTriangles(result.mesh);
@@ -92,8 +99,8 @@ Result<Simplification> simplifyMesh(const Scan& mesh, const SimplifyOptions& opt
   result.mesh.points.normals = areaWeightedVertexNormals(result.mesh);
   report.facesOut = result.mesh.triangles.size();
   if (static_cast<double>(report.facesOut) > 1.01 * static_cast<double>(report.targetFaces))
-    spdlog::warn("simplify: stopped at {} faces, above the target {}: borders are kept as they are, and this mesh's "
-                 "borders (holes, open edges) alone need that many faces",
+    spdlog::warn("simplify: stopped at {} faces, above the target {}: no further collapse keeps the mesh manifold "
+                 "and free of degenerate faces",
                  report.facesOut, report.targetFaces);
   report.quality = measureMesh(result.mesh);
   measureDistances(result.mesh, mesh, report);

@@ -111,6 +111,31 @@ TEST(ReconstructSurface, LargeInputIsSubsampledAndSaysSo) {
   EXPECT_GT(result->report.pointsUsed, 1500u);
 }
 
+// Points of the unit sphere's cap above height `zMin`, outward normals.
+PointSet sphereCap(float zMin) {
+  PointSet cap;
+  for (const Vec3f& p : test::fibonacciSpherePoints(6000)) {
+    if (p.z() < zMin) continue;
+    cap.positions.push_back(p);
+    cap.normals.push_back(p);
+  }
+  return cap;
+}
+
+TEST(ReconstructSurface, AutoPicksPoissonForClosedAndAdvancingFrontForOpen) {
+  // The mean unit normal of a closed sphere is 0; of the cap above z = 0.5,
+  // the mean of z over the cap: (1 + 0.5) / 2 = 0.75.
+  EXPECT_LT(normalImbalance(sphereCap(-2.0f)), 0.01);
+  EXPECT_NEAR(normalImbalance(sphereCap(0.5f)), 0.75, 0.01);
+  auto closed = reconstructSurface(sphereCap(-2.0f), ReconstructOptions{});
+  ASSERT_TRUE(closed.ok()) << closed.error().message;
+  EXPECT_EQ(closed->report.method, "poisson");
+  auto open = reconstructSurface(sphereCap(0.5f), ReconstructOptions{});
+  ASSERT_TRUE(open.ok()) << open.error().message;
+  EXPECT_EQ(open->report.method, "advancing-front");
+  EXPECT_EQ(open->report.quality.boundaryLoops, 1u);
+}
+
 TEST(ReconstructSurface, TooFewPointsIsBadInput) {
   PointSet points;
   points.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};

@@ -108,5 +108,71 @@ TEST(SimplifyMesh, NonManifoldInputIsRepairedNotFatal) {
   EXPECT_NEAR(static_cast<double>(result->report.facesOut), 400.0, 4.0);
 }
 
+// A height field z = h(x, y) over the unit square, `cells` x `cells` squares
+// of two triangles each; the squares for which `punch` holds are left out.
+template <class Height, class Punch>
+Scan heightFieldGrid(int cells, Height h, Punch punch) {
+  Scan grid;
+  const auto index = [cells](int i, int j) { return static_cast<std::uint32_t>(j * (cells + 1) + i); };
+  for (int j = 0; j <= cells; ++j)
+    for (int i = 0; i <= cells; ++i) {
+      const float x = static_cast<float>(i) / static_cast<float>(cells), y = static_cast<float>(j) / static_cast<float>(cells);
+      grid.points.positions.emplace_back(x, y, h(x, y));
+    }
+  for (int j = 0; j < cells; ++j)
+    for (int i = 0; i < cells; ++i) {
+      if (punch(i, j)) continue;
+      grid.triangles.push_back({index(i, j), index(i + 1, j), index(i + 1, j + 1)});
+      grid.triangles.push_back({index(i, j), index(i + 1, j + 1), index(i, j + 1)});
+    }
+  return grid;
+}
+
+TEST(SimplifyMesh, BordersAreKeptWhenTheyFitTheTarget) {
+  // 800 faces and an 80-edge border, to 300 faces: every border vertex of m
+  // is still on the square's edge.
+  const Scan grid = heightFieldGrid(20, [](float x, float y) { return 0.1f * x * y; }, [](int, int) { return false; });
+  SimplifyOptions options;
+  options.targetFaces = 300;
+  auto result = simplifyMesh(grid, options);
+  ASSERT_TRUE(result.ok()) << result.error().message;
+  EXPECT_NEAR(static_cast<double>(result->report.facesOut), 300.0, 3.0);
+  EXPECT_FALSE(result->report.bordersCollapsed);
+  EXPECT_EQ(result->report.quality.boundaryLoops, 1u);
+  int onEdge = 0;
+  for (const Vec3f& p : result->mesh.points.positions)
+    onEdge += (p.x() == 0.0f || p.x() == 1.0f || p.y() == 0.0f || p.y() == 1.0f) ? 1 : 0;
+  EXPECT_EQ(onEdge, 80);  // the border's 80 vertices, none moved, none lost
+}
+
+TEST(SimplifyMesh, SmallHolesAndLongBordersStillReachTheTarget) {
+  // A scan-like patch: 20,000 faces, a 400-edge outer border and 100 one-cell
+  // holes. Frozen, the holes and the border would hold about 1,200 faces (a
+  // polygon of 400 corners alone takes 398 triangles); the holes are closed
+  // and the border collapsed along itself, to 200 faces.
+  const auto height = [](float x, float y) {
+    return 0.05f * std::sin(2.0f * std::numbers::pi_v<float> * x) * std::sin(2.0f * std::numbers::pi_v<float> * y);
+  };
+  const Scan grid = heightFieldGrid(100, height, [](int i, int j) { return i % 10 == 5 && j % 10 == 5; });
+  SimplifyOptions options;
+  options.targetFaces = 200;
+  auto result = simplifyMesh(grid, options);
+  ASSERT_TRUE(result.ok()) << result.error().message;
+  const Scan& m = result->mesh;
+  EXPECT_NEAR(static_cast<double>(m.triangles.size()), 200.0, 2.0);
+  EXPECT_EQ(result->report.filledHoles, 100u);
+  EXPECT_TRUE(result->report.bordersCollapsed);
+  EXPECT_EQ(result->report.quality.boundaryLoops, 1u);
+  // m's vertices stay on the height field (about 50 faces per bump: a
+  // vertex sits within a tenth of the bump height), and the border keeps the
+  // square's extent.
+  for (const Vec3f& p : m.points.positions) EXPECT_NEAR(p.z(), height(p.x(), p.y()), 0.005f);
+  const Aabb box = boundingBox(m.points.positions);
+  EXPECT_NEAR(box.min.x(), 0.0f, 0.01f);
+  EXPECT_NEAR(box.max.x(), 1.0f, 0.01f);
+  EXPECT_NEAR(box.min.y(), 0.0f, 0.01f);
+  EXPECT_NEAR(box.max.y(), 1.0f, 0.01f);
+}
+
 }  // namespace
 }  // namespace apo
