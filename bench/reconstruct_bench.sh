@@ -13,7 +13,7 @@ mkdir -p "$out"
 # "seconds peak_MiB" of a command (its output goes to $out/log.txt).
 measure() {
   /usr/bin/time -f "%e %M" -o "$out/time.txt" "$@" >>"$out/log.txt" 2>&1 || { echo "FAILED: $*" >&2; echo "failed -"; return; }
-  awk '{printf "%.2f %d", $1, $2 / 1024}' "$out/time.txt"
+  awk '{printf "%.2f %d\n", $1, $2 / 1024}' "$out/time.txt"
 }
 
 json() { python3 -c "import json,sys; j=json.load(open(sys.argv[1])); print(eval(sys.argv[2]))" "$@"; }

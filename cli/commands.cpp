@@ -1,5 +1,7 @@
 #include "cli/commands.h"
 
+#include "cli/command_support.h"
+
 #include "core/error.h"
 #include "core/timing.h"
 #include "core/file_io.h"
@@ -14,36 +16,6 @@
 namespace apo::cli {
 namespace fs = std::filesystem;
 namespace {
-
-int exitCodeFor(const Error& error) {
-  switch (error.kind) {
-    case ErrorKind::Usage: return kExitUsage;
-    case ErrorKind::BadInput: return kExitBadInput;
-    case ErrorKind::Internal: return kExitInternal;
-  }
-  return kExitInternal;
-}
-
-int reportFailure(const Error& error) {
-  spdlog::error("{}", error.message);
-  return exitCodeFor(error);
-}
-
-// Runs a command body, turning escaped exceptions into internal errors so
-// that no input ever ends in an uncaught exception.
-template <class Body>
-int guarded(Body&& body) {
-  try {
-    return body();
-  } catch (const std::bad_alloc&) {
-    return reportFailure(internalError("out of memory"));
-  } catch (const std::exception& exception) {
-    return reportFailure(internalError("unexpected failure: {}", exception.what()));
-  }
-}
-
-// A stage's error about an input, prefixed with the input's path.
-Error aboutInput(const fs::path& input, const Error& error) { return {error.kind, input.string() + ": " + error.message}; }
 
 // A stage's two outputs: its mesh as binary PLY and its report as JSON.
 Status writeMeshAndReport(const fs::path& meshPath, const Scan& mesh, const fs::path& reportPath,

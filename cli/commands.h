@@ -16,5 +16,7 @@ void addIngestCommand(CLI::App& app, int& exitCode);
 void addSimulateScanCommand(CLI::App& app, int& exitCode);
 void addReconstructCommand(CLI::App& app, int& exitCode);
 void addSimplifyCommand(CLI::App& app, int& exitCode);
+void addBakeCommand(CLI::App& app, int& exitCode);
+void addLookupCommand(CLI::App& app, int& exitCode);
 
 }  // namespace apo::cli

@@ -29,6 +29,8 @@ int main(int argc, char** argv) {
   addSimulateScanCommand(app, exitCode);
   addReconstructCommand(app, exitCode);
   addSimplifyCommand(app, exitCode);
+  addBakeCommand(app, exitCode);
+  addLookupCommand(app, exitCode);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& error) {

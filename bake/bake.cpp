@@ -1,0 +1,193 @@
+// The bake: checks, the unit cube, the octree (section 3.1), the sampling
+// (section 3.2) and the encoding (section 4), timed phase by phase.
+#include "bake/bake.h"
+
+#include "bake/sampling.h"
+#include "core/timing.h"
+#include "ingest/ingest.h"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+namespace apo {
+namespace {
+
+// Deeper cells than this are below float precision of the unit cube's
+// coordinates in the shader (2^-16 against float's 2^-24 resolution near 1).
+constexpr int kDeepestDepth = 16;
+constexpr int kDeepestCoarseDepth = 10;  // a complete grid of 2^30 cells is the limit
+constexpr int kMostSamples = 64;
+
+Status validateOptions(const BakeOptions& o) {
+  if (o.coarseDepth < 0 || o.coarseDepth > kDeepestCoarseDepth)
+    return usageError("--coarse-depth must be in [0, {}], got {}", kDeepestCoarseDepth, o.coarseDepth);
+  if (o.maxDepth < o.coarseDepth || o.maxDepth > kDeepestDepth)
+    return usageError("--max-depth must be in [--coarse-depth ({}), {}], got {}", o.coarseDepth, kDeepestDepth, o.maxDepth);
+  if (!(o.error > 0.0) || !std::isfinite(o.error)) return usageError("--error must be positive, got {}", o.error);
+  if (!(o.maxDistance > 0.0) || !std::isfinite(o.maxDistance))
+    return usageError("--max-distance must be positive, got {}", o.maxDistance);
+  if (o.samples < 1 || o.samples > kMostSamples)
+    return usageError("--samples must be in [1, {}], got {}", kMostSamples, o.samples);
+  if (o.completeDepth < -1 || o.completeDepth > o.coarseDepth)
+    return usageError("--complete-depth must be in [0, --coarse-depth ({})], got {}", o.coarseDepth, o.completeDepth);
+  return okStatus();
+}
+
+bool allFinite(const std::vector<Vec3f>& vectors) {
+  return std::all_of(vectors.begin(), vectors.end(), [](const Vec3f& v) { return v.allFinite(); });
+}
+
+Status validateInputs(const DetailSurface& detail, const Scan& coarse) {
+  if (!coarse.isMesh())
+    return badInput("the coarse mesh m has no triangles ({} points): bake needs a triangle mesh", coarse.points.size());
+  if (!allFinite(coarse.points.positions)) return badInput("the coarse mesh m has a non-finite vertex");
+  if (boundingBox(coarse.points.positions).diagonal() <= 0.0f) return badInput("the coarse mesh m has no extent");
+  if (!detail.detail || !detail.caster || !detail.closest) return internalError("bake: the detail surface is incomplete");
+  const Scan& M = *detail.detail;
+  if (M.points.size() == 0) return badInput("the detail surface M is empty");
+  if (M.points.normals.size() != M.points.size())
+    return badInput("the detail surface M has no normals: run `apo ingest` on a point cloud first");
+  if (!allFinite(M.points.positions) || !allFinite(M.points.normals))
+    return badInput("the detail surface M has a non-finite position or normal");
+  if (!M.isMesh() && !detail.pointAreas.empty() && detail.pointAreas.size() != M.points.size())
+    return internalError("bake: {} point areas for {} points", detail.pointAreas.size(), M.points.size());
+  return okStatus();
+}
+
+octree::CoarseMesh coarseInUnitCube(const Scan& coarse, const UnitCubeTransform& transform) {
+  octree::CoarseMesh unit;
+  unit.triangles = coarse.triangles;
+  unit.positions.reserve(coarse.points.size());
+  for (const Vec3f& p : coarse.points.positions) unit.positions.push_back(transform.toUnit(p));
+  return unit;
+}
+
+// M's primitives with their unit normals and weights (area over the mean
+// area), as the L2,1 metric reads them.
+octree::DetailPrimitives detailInUnitCube(const DetailSurface& surface, const UnitCubeTransform& transform) {
+  const Scan& M = *surface.detail;
+  octree::DetailPrimitives detail;
+  detail.positions.reserve(M.points.size());
+  for (const Vec3f& p : M.points.positions) detail.positions.push_back(transform.toUnit(p));
+  if (M.isMesh()) {
+    detail.triangles = M.triangles;
+    for (const Triangle& t : M.triangles) {
+      const Vec3f& a = M.points.positions[t[0]];
+      const Vec3f areaNormal = 0.5f * (M.points.positions[t[1]] - a).cross(M.points.positions[t[2]] - a);
+      const float area = areaNormal.norm();
+      detail.normals.push_back(area > 0.0f ? Vec3f(areaNormal / area) : Vec3f(Vec3f::Zero()));
+      detail.weights.push_back(area);
+    }
+  } else {
+    detail.normals = M.points.normals;
+    detail.weights = surface.pointAreas.empty() ? std::vector<float>(M.points.size(), 1.0f) : surface.pointAreas;
+  }
+  const double total = std::accumulate(detail.weights.begin(), detail.weights.end(), 0.0);
+  const double mean = total / static_cast<double>(std::max<std::size_t>(1, detail.weights.size()));
+  if (mean > 0.0)
+    for (float& w : detail.weights) w = static_cast<float>(w / mean);
+  return detail;
+}
+
+void countNodes(const Octree& octree, BakeReport& report) {
+  for (const OctreeNode& node : octree.nodes) {
+    if (report.nodesPerDepth.size() <= node.depth) report.nodesPerDepth.resize(node.depth + 1, 0);
+    ++report.nodesPerDepth[node.depth];
+    ++(node.isLeaf() ? report.leaves : report.internalNodes);
+  }
+}
+
+}  // namespace
+
+Result<Bake> bakeWith(const DetailSurface& detail, const Scan& coarse, const BakeOptions& options) {
+  APO_RETURN_IF_ERROR(validateOptions(options));
+  APO_RETURN_IF_ERROR(validateInputs(detail, coarse));
+  Stopwatch total;
+  Bake bake;
+  BakeReport& report = bake.report;
+  report.detailKind = detail.detail->isMesh() ? "mesh" : "points";
+  report.detailPrimitives = detail.detail->isMesh() ? detail.detail->triangles.size() : detail.detail->points.size();
+  report.coarseTriangles = coarse.triangles.size();
+
+  Stopwatch phase;
+  const Aabb box = boundingBox(coarse.points.positions);
+  const UnitCubeTransform transform = unitCubeAround(box);
+  const octree::CoarseMesh coarseUnit = coarseInUnitCube(coarse, transform);
+  const std::vector<Vec3f> coarseNormals =
+      coarse.points.normals.size() == coarse.points.size() ? coarse.points.normals : areaWeightedVertexNormals(coarse);
+  octree::BuiltOctree built;
+  {
+    const octree::DetailPrimitives primitives = detailInUnitCube(detail, transform);
+    report.seconds.setup += phase.seconds();
+    phase = Stopwatch();
+    built = octree::buildOctree(coarseUnit, primitives, {options.coarseDepth, options.maxDepth, options.error});
+  }
+  built.octree.transform = transform;
+  report.seconds.build = phase.seconds();
+  spdlog::info("bake: octree of {} nodes built in {:.2f} s", built.octree.nodes.size(), report.seconds.build);
+
+  phase = Stopwatch();
+  const sampling::SamplingSettings sampling{options.samples, options.maxDistance * box.diagonal()};
+  const sampling::SampleCounts counts = sampling::sampleNormalField(
+      built, {&coarseUnit, &coarse.points.positions, &coarseNormals}, detail, sampling);
+  report.rays = counts.rays;
+  report.hits = counts.hits;
+  report.fallbacks = counts.fallbacks;
+  report.seconds.sample = phase.seconds();
+  spdlog::info("bake: {} rays, {} samples hit M, {} by the closest point, in {:.2f} s", counts.rays, counts.hits,
+               counts.fallbacks, report.seconds.sample);
+
+  phase = Stopwatch();
+  const int completeDepth = options.completeDepth < 0 ? options.coarseDepth : options.completeDepth;
+  auto texture = encodeApo(built.octree, completeDepth, options.encoding, static_cast<std::uint8_t>(options.coarseDepth),
+                           static_cast<std::uint8_t>(options.maxDepth));
+  if (!texture) return texture.error();
+  bake.texture = std::move(texture).value();
+  report.seconds.encode = phase.seconds();
+
+  bake.octree = std::move(built.octree);
+  countNodes(bake.octree, report);
+  report.textureWidth = bake.texture.width;
+  report.textureHeight = bake.texture.height;
+  report.textureBytes = bake.texture.texels.size();
+  report.totalSeconds = total.seconds();
+  report.peakMemoryBytes = peakResidentBytes();
+  return bake;
+}
+
+Result<Bake> bakeApo(const Scan& detail, const Scan& coarse, const BakeOptions& options) {
+  APO_RETURN_IF_ERROR(validateOptions(options));
+  Stopwatch setup;
+  Scan M = detail;
+  if (M.isMesh() && M.points.normals.size() != M.points.size()) M.points.normals = areaWeightedVertexNormals(M);
+  if (!M.isMesh() && !M.points.hasNormals())
+    return badInput("the detail points have no normals: run `apo ingest` first, which estimates and orients them");
+  DetailSurface surface;
+  surface.detail = &M;
+  Result<std::unique_ptr<RayCaster>> caster = internalError("no caster");
+  if (M.isMesh()) {
+    caster = makeEmbreeMeshCaster(M);
+  } else {
+    const std::vector<float> radii = discRadii(M.points);
+    caster = makeEmbreeDiscCaster(M.points, radii);
+    for (const float r : radii) surface.pointAreas.push_back(r * r);
+  }
+  if (!caster) return caster.error();
+  auto closest = makeFlannClosestPoint(M);
+  if (!closest) return closest.error();
+  surface.caster = caster->get();
+  surface.closest = closest->get();
+  const double setupSeconds = setup.seconds();
+  spdlog::info("bake: Embree and FLANN over {} {} in {:.2f} s", M.isMesh() ? M.triangles.size() : M.points.size(),
+               M.isMesh() ? "triangles" : "points", setupSeconds);
+  auto bake = bakeWith(surface, coarse, options);
+  if (!bake) return bake;
+  bake->report.seconds.setup += setupSeconds;
+  bake->report.totalSeconds += setupSeconds;
+  return bake;
+}
+
+}  // namespace apo

@@ -1,0 +1,271 @@
+// Normal field sampling (paper section 3.2). For each leaf C and each
+// triangle t of m in C, rays start on t inside C along m's interpolated
+// normal, both ways; the nearest hit on M gives M's interpolated normal
+// there, and a miss falls back to M's closest point. A leaf's normal is the
+// mean of its samples weighted by the area of t inside C.
+#include "bake/sampling.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+
+namespace apo::sampling {
+namespace {
+
+using octree::Cell;
+
+// A ray origin on triangle t of m, and its share of the leaf's weight.
+struct Sample {
+  std::uint32_t leaf = 0;  // position in the leaf list of the chunk
+  std::uint32_t triangle = 0;
+  Eigen::Vector3f barycentrics = Eigen::Vector3f::Zero();
+  double weight = 0.0;
+};
+
+Eigen::Vector3f barycentricsOf(const Vec3f& p, const Vec3f& a, const Vec3f& b, const Vec3f& c) {
+  const Vec3f v0 = b - a, v1 = c - a, v2 = p - a;
+  const double d00 = v0.dot(v0), d01 = v0.dot(v1), d11 = v1.dot(v1), d20 = v2.dot(v0), d21 = v2.dot(v1);
+  const double denominator = d00 * d11 - d01 * d01;
+  if (!(denominator > 0.0)) return {1.0f, 0.0f, 0.0f};
+  const double v = (d11 * d20 - d01 * d21) / denominator, w = (d00 * d21 - d01 * d20) / denominator;
+  Eigen::Vector3f weights(static_cast<float>(1.0 - v - w), static_cast<float>(v), static_cast<float>(w));
+  weights = weights.cwiseMax(0.0f);  // the point is on t up to rounding
+  return weights / weights.sum();
+}
+
+// Low-discrepancy points of the unit square (Roberts' R2 sequence): sample j
+// of k lands in its own part of the square, the same for every run.
+std::array<float, 2> r2Point(int j) {
+  constexpr double a1 = 0.7548776662466927, a2 = 0.5698402909980532;  // 1/g, 1/g^2, g^3 = g + 1
+  const double x = 0.5 + a1 * j, y = 0.5 + a2 * j;
+  return {static_cast<float>(x - std::floor(x)), static_cast<float>(y - std::floor(y))};
+}
+
+// k points spread over a convex polygon: the fan triangle of each is picked
+// by stratified area, the point in it by the R2 sequence.
+std::vector<Vec3f> stratifiedPoints(const std::vector<Vec3f>& polygon, int k) {
+  std::vector<double> cumulative;
+  double total = 0.0;
+  for (std::size_t i = 1; i + 1 < polygon.size(); ++i) {
+    total += 0.5 * (polygon[i] - polygon[0]).cast<double>().cross((polygon[i + 1] - polygon[0]).cast<double>()).norm();
+    cumulative.push_back(total);
+  }
+  std::vector<Vec3f> points;
+  for (int j = 0; j < k; ++j) {
+    const double target = (j + 0.5) / k * total;
+    const std::size_t fan = std::min<std::size_t>(
+        static_cast<std::size_t>(std::lower_bound(cumulative.begin(), cumulative.end(), target) - cumulative.begin()),
+        cumulative.size() - 1);
+    auto [r1, r2] = r2Point(j);
+    if (r1 + r2 > 1.0f) {
+      r1 = 1.0f - r1;
+      r2 = 1.0f - r2;
+    }
+    const Vec3f& p0 = polygon[0];
+    points.push_back(p0 + r1 * (polygon[fan + 1] - p0) + r2 * (polygon[fan + 2] - p0));
+  }
+  return points;
+}
+
+// The cell of every node, walking the broods from the root.
+std::vector<Cell> cellsOf(const Octree& octree) {
+  std::vector<Cell> cells(octree.nodes.size());
+  for (std::uint32_t n = 0; n < octree.nodes.size(); ++n) {
+    const OctreeNode& node = octree.nodes[n];
+    if (node.isLeaf()) continue;
+    std::uint32_t child = node.firstChild;
+    for (int c = 0; c < 8; ++c)
+      if (node.childMask & (1u << c)) cells[child++] = cells[n].child(c);
+  }
+  return cells;
+}
+
+class LeafSampler {
+ public:
+  LeafSampler(const octree::BuiltOctree& built, const CoarseFrames& coarse, const DetailSurface& detail,
+              const SamplingSettings& settings)
+      : built_(built), coarse_(coarse), detail_(detail), settings_(settings), cells_(cellsOf(built.octree)) {}
+
+  // Ray origins of one leaf, appended to `samples`.
+  void addSamples(std::uint32_t node, std::uint32_t leafSlot, std::vector<Sample>& samples, double& area) const {
+    const Cell cell = cellOf(node);
+    const auto& unit = *coarse_.unit;
+    area = 0.0;
+    for (std::uint64_t i = built_.leafTriangleBegin[node]; i < built_.leafTriangleBegin[node + 1]; ++i) {
+      const std::uint32_t t = built_.leafTriangles[i];
+      const Triangle& tri = unit.triangles[t];
+      const Vec3f &a = unit.positions[tri[0]], &b = unit.positions[tri[1]], &c = unit.positions[tri[2]];
+      const std::vector<Vec3f> inside = octree::clipTriangleToCell(a, b, c, cell);
+      const double clippedArea = inside.size() >= 3 ? octree::polygonArea(inside) : 0.0;
+      area += clippedArea;
+      if (settings_.samples == 1 || inside.size() < 3) {
+        samples.push_back({leafSlot, t, closestPointBarycentrics(cell.centre, a, b, c), clippedArea});
+        continue;
+      }
+      for (const Vec3f& p : stratifiedPoints(inside, settings_.samples))
+        samples.push_back({leafSlot, t, barycentricsOf(p, a, b, c), clippedArea / settings_.samples});
+    }
+  }
+
+  Ray rayOf(const Sample& s, float direction, float reach) const {
+    const Triangle& tri = coarse_.unit->triangles[s.triangle];
+    const auto& p = *coarse_.worldPositions;
+    const auto& n = *coarse_.vertexNormals;
+    const Eigen::Vector3f& w = s.barycentrics;
+    Ray ray;
+    ray.origin = w[0] * p[tri[0]] + w[1] * p[tri[1]] + w[2] * p[tri[2]];
+    ray.direction = direction * (w[0] * n[tri[0]] + w[1] * n[tri[1]] + w[2] * n[tri[2]]).normalized();
+    ray.tFar = reach;
+    return ray;
+  }
+
+  float reachOf(std::uint32_t node) const {
+    const float cellDiagonal = std::sqrt(3.0f) * cellOf(node).width / static_cast<float>(built_.octree.transform.scale);
+    return std::max(static_cast<float>(settings_.maxDistance), cellDiagonal);
+  }
+
+  // M's normal at a hit: interpolated vertex normals on a mesh, the point's
+  // own normal for a disc.
+  Vec3f normalAt(const RayHit& hit) const {
+    const Scan& m = *detail_.detail;
+    if (!m.isMesh()) return m.points.normals[hit.primitive];
+    const Triangle& tri = m.triangles[hit.primitive];
+    const auto& n = m.points.normals;
+    const Vec3f interpolated = (1.0f - hit.u - hit.v) * n[tri[0]] + hit.u * n[tri[1]] + hit.v * n[tri[2]];
+    if (interpolated.squaredNorm() > 0.0f) return interpolated.normalized();
+    return hit.geometricNormal.normalized();
+  }
+
+  Cell cellOf(std::uint32_t node) const { return cells_[node]; }
+
+ private:
+  const octree::BuiltOctree& built_;
+  const CoarseFrames& coarse_;
+  const DetailSurface& detail_;
+  const SamplingSettings& settings_;
+  std::vector<Cell> cells_;
+};
+
+// Children come after their parent in the node array, so a reverse sweep sees
+// every child before its parent.
+void averageInternalNodes(Octree& octree) {
+  for (std::size_t n = octree.nodes.size(); n-- > 0;) {
+    OctreeNode& node = octree.nodes[n];
+    if (node.isLeaf()) continue;
+    Eigen::Vector3d weighted = Eigen::Vector3d::Zero(), plain = Eigen::Vector3d::Zero();
+    double weight = 0.0;
+    std::uint32_t child = node.firstChild;
+    for (int c = 0; c < 8; ++c) {
+      if (!(node.childMask & (1u << c))) continue;
+      const OctreeNode& k = octree.nodes[child++];
+      weighted += k.weight * k.normal.cast<double>();
+      plain += k.normal.cast<double>();
+      weight += k.weight;
+    }
+    const Eigen::Vector3d sum = weighted.squaredNorm() > 0.0 ? weighted : plain;
+    node.normal = sum.squaredNorm() > 0.0 ? Vec3f(sum.normalized().cast<float>()) : Vec3f(Vec3f::UnitZ());
+    node.weight = weight;
+  }
+}
+
+constexpr std::size_t kLeavesPerChunk = 256;
+
+}  // namespace
+
+Eigen::Vector3f closestPointBarycentrics(const Vec3f& p, const Vec3f& a, const Vec3f& b, const Vec3f& c) {
+  const Vec3f ab = b - a, ac = c - a, ap = p - a;
+  const float d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0.0f && d2 <= 0.0f) return {1, 0, 0};
+  const Vec3f bp = p - b;
+  const float d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0.0f && d4 <= d3) return {0, 1, 0};
+  const float vc = d1 * d4 - d3 * d2;
+  if (vc <= 0.0f && d1 >= 0.0f && d3 <= 0.0f) {
+    const float v = d1 / (d1 - d3);
+    return {1 - v, v, 0};
+  }
+  const Vec3f cp = p - c;
+  const float d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0.0f && d5 <= d6) return {0, 0, 1};
+  const float vb = d5 * d2 - d1 * d6;
+  if (vb <= 0.0f && d2 >= 0.0f && d6 <= 0.0f) {
+    const float w = d2 / (d2 - d6);
+    return {1 - w, 0, w};
+  }
+  const float va = d3 * d6 - d5 * d4;
+  if (va <= 0.0f && (d4 - d3) >= 0.0f && (d5 - d6) >= 0.0f) {
+    const float w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+    return {0, 1 - w, w};
+  }
+  const float denominator = va + vb + vc;
+  if (!(denominator > 0.0f)) return {1, 0, 0};  // degenerate triangle
+  const float v = vb / denominator, w = vc / denominator;
+  return {1 - v - w, v, w};
+}
+
+SampleCounts sampleNormalField(octree::BuiltOctree& built, const CoarseFrames& coarse, const DetailSurface& detail,
+                               const SamplingSettings& settings) {
+  Octree& octree = built.octree;
+  std::vector<std::uint32_t> leaves;
+  for (std::uint32_t n = 0; n < octree.nodes.size(); ++n)
+    if (octree.nodes[n].isLeaf()) leaves.push_back(n);
+  const LeafSampler sampler(built, coarse, detail, settings);
+  const double unitToWorldArea = 1.0 / (octree.transform.scale * octree.transform.scale);
+
+  const std::size_t chunks = (leaves.size() + kLeavesPerChunk - 1) / kLeavesPerChunk;
+  std::vector<SampleCounts> counts(chunks);
+  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t chunk) {
+    const std::size_t begin = chunk * kLeavesPerChunk, end = std::min(leaves.size(), begin + kLeavesPerChunk);
+    std::vector<Sample> samples;
+    std::vector<double> areas(end - begin);
+    for (std::size_t i = begin; i < end; ++i)
+      sampler.addSamples(leaves[i], static_cast<std::uint32_t>(i - begin), samples, areas[i - begin]);
+    // Two rays per sample: along m's normal and against it.
+    std::vector<Ray> rays;
+    rays.reserve(2 * samples.size());
+    for (const Sample& s : samples) {
+      const float reach = sampler.reachOf(leaves[begin + s.leaf]);
+      rays.push_back(sampler.rayOf(s, 1.0f, reach));
+      rays.push_back(sampler.rayOf(s, -1.0f, reach));
+    }
+    std::vector<RayHit> hits;
+    detail.caster->intersect(rays, hits);
+
+    std::vector<Eigen::Vector3d> weighted(end - begin, Eigen::Vector3d::Zero()), plain(end - begin, Eigen::Vector3d::Zero());
+    SampleCounts& count = counts[chunk];
+    count.rays += rays.size();
+    for (std::size_t k = 0; k < samples.size(); ++k) {
+      const RayHit& forward = hits[2 * k];
+      const RayHit& backward = hits[2 * k + 1];
+      Vec3f normal;
+      if (forward.hit() || backward.hit()) {
+        const RayHit& nearest = (forward.hit() && (!backward.hit() || forward.t <= backward.t)) ? forward : backward;
+        normal = sampler.normalAt(nearest);
+        ++count.hits;
+      } else {
+        normal = detail.closest->closest(rays[2 * k].origin).normal;
+        ++count.fallbacks;
+      }
+      weighted[samples[k].leaf] += samples[k].weight * normal.cast<double>();
+      plain[samples[k].leaf] += normal.cast<double>();
+    }
+    for (std::size_t i = begin; i < end; ++i) {
+      OctreeNode& leaf = octree.nodes[leaves[i]];
+      const Eigen::Vector3d sum = weighted[i - begin].squaredNorm() > 0.0 ? weighted[i - begin] : plain[i - begin];
+      leaf.normal = sum.squaredNorm() > 0.0 ? Vec3f(sum.normalized().cast<float>()) : Vec3f(Vec3f::UnitZ());
+      leaf.weight = areas[i - begin] * unitToWorldArea;
+    }
+  });
+  averageInternalNodes(octree);
+  SampleCounts total;
+  for (const SampleCounts& c : counts) {
+    total.rays += c.rays;
+    total.hits += c.hits;
+    total.fallbacks += c.fallbacks;
+  }
+  return total;
+}
+
+}  // namespace apo::sampling

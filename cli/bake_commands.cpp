@@ -1,0 +1,123 @@
+// `apo bake` (M and m to the APO: scan.apo, texture.png, bake.json) and
+// `apo lookup` (the APO's normals at given points, without the renderer).
+#include "bake/bake.h"
+#include "cli/command_support.h"
+#include "core/file_io.h"
+#include "ingest/ingest.h"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+#include <tbb/global_control.h>
+
+#include <map>
+#include <memory>
+#include <optional>
+#include <thread>
+
+namespace apo::cli {
+namespace fs = std::filesystem;
+namespace {
+
+struct BakeCommand {
+  fs::path detail;
+  fs::path coarse;
+  fs::path outDir;
+  int threads = 0;
+  BakeOptions options;
+};
+
+// TBB uses every core unless told otherwise; the output is the same either way.
+std::optional<tbb::global_control> limitThreads(int threads) {
+  if (threads <= 0) return std::nullopt;
+  return std::make_optional<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
+                                                 static_cast<std::size_t>(threads));
+}
+
+int runBake(const BakeCommand& command) {
+  const auto threads = limitThreads(command.threads);
+  auto detail = readScan(command.detail);
+  if (!detail) return reportFailure(detail.error());
+  auto coarse = readScan(command.coarse);
+  if (!coarse) return reportFailure(coarse.error());
+  if (!coarse->isMesh())
+    return reportFailure(badInput("{}: the coarse mesh m must be a triangle mesh, the file has only points",
+                                  command.coarse.string()));
+  auto bake = bakeApo(*detail, *coarse, command.options);
+  if (!bake) return reportFailure(aboutInput(command.detail, bake.error()));
+  if (Status s = writeApoFile(command.outDir / "scan.apo", bake->texture); !s.ok()) return reportFailure(s.error());
+  if (Status s = writeApoPng(command.outDir / "texture.png", bake->texture); !s.ok()) return reportFailure(s.error());
+  if (Status s = writeFileAtomically(command.outDir / "bake.json", bakeReportJson(bake->report)); !s.ok())
+    return reportFailure(s.error());
+  const BakeReport& r = bake->report;
+  spdlog::info("bake: {} leaves, {} internal nodes, texture {}x{} ({} KiB), {} fallbacks of {} samples, {:.2f} s -> {}",
+               r.leaves, r.internalNodes, r.textureWidth, r.textureHeight, r.textureBytes >> 10, r.fallbacks,
+               r.hits + r.fallbacks, r.totalSeconds, (command.outDir / "scan.apo").string());
+  return kExitSuccess;
+}
+
+struct LookupCommand {
+  fs::path apo;
+  fs::path points;
+  fs::path output;
+  int depth = 255;
+};
+
+int runLookup(const LookupCommand& command) {
+  auto texture = readApoFile(command.apo);
+  if (!texture) return reportFailure(texture.error());
+  auto points = readScan(command.points);
+  if (!points) return reportFailure(points.error());
+  std::string text;
+  std::uint64_t outside = 0;
+  for (const Vec3f& p : points->points.positions) {
+    const Lookup found = lookupTexture(*texture, texture->transform.toUnit(p), command.depth);
+    outside += found.found ? 0 : 1;
+    const Vec3f n = found.found ? found.normal : Vec3f::Zero();
+    text += fmt::format("{:.9g} {:.9g} {:.9g}\n", n.x(), n.y(), n.z());
+  }
+  if (Status s = writeFileAtomically(command.output, text); !s.ok()) return reportFailure(s.error());
+  spdlog::info("lookup: {} points, {} outside the octree -> {}", points->points.size(), outside, command.output.string());
+  return kExitSuccess;
+}
+
+}  // namespace
+
+void addBakeCommand(CLI::App& app, int& exitCode) {
+  auto command = std::make_shared<BakeCommand>();
+  CLI::App* sub = app.add_subcommand("bake", "Bake the octree texture (APO) of M's normals around m");
+  sub->add_option("--detail", command->detail, "M: the dense mesh, or points with normals (scan.ply of apo ingest)")
+      ->required();
+  sub->add_option("--coarse", command->coarse, "m: the coarse triangle mesh (m.ply of apo simplify)")->required();
+  sub->add_option("-o,--out", command->outDir, "Output folder (scan.apo, texture.png, bake.json)")->required();
+  BakeOptions& o = command->options;
+  sub->add_option("--coarse-depth", o.coarseDepth, "Depth of the initial complete octree around m")->capture_default_str();
+  sub->add_option("--max-depth", o.maxDepth, "Deepest refinement")->capture_default_str();
+  sub->add_option("--error", o.error, "L2,1 threshold for refining a cell (paper: 0.3, 0.1, 0.05)")->capture_default_str();
+  sub->add_option("--max-distance", o.maxDistance,
+                  "Ray reach as a fraction of m's bounding-box diagonal (at least the cell's diagonal)")
+      ->capture_default_str();
+  sub->add_option("--samples", o.samples, "Ray origins per leaf and triangle of m (1: the paper)")->capture_default_str();
+  sub->add_option("--complete-depth", o.completeDepth, "Levels stored as a dense grid of roots (-1: the coarse depth)")
+      ->capture_default_str();
+  const std::map<std::string, NormalEncoding> encodings = {{"xyz8", NormalEncoding::Xyz8},
+                                                           {"oct24", NormalEncoding::Oct24}};
+  sub->add_option("--normal-encoding", o.encoding, "xyz8 (the paper's 8 bits per axis) or oct24 (octahedral)")
+      ->transform(CLI::CheckedTransformer(encodings, CLI::ignore_case))
+      ->default_str(normalEncodingName(o.encoding));
+  sub->add_option("--threads", command->threads, "Worker threads (0: all cores); the output does not depend on it")
+      ->capture_default_str();
+  sub->callback([command, &exitCode] { exitCode = guarded([&] { return runBake(*command); }); });
+}
+
+void addLookupCommand(CLI::App& app, int& exitCode) {
+  auto command = std::make_shared<LookupCommand>();
+  CLI::App* sub = app.add_subcommand("lookup", "Decode the APO's normal at world-space points, as the shader would");
+  sub->add_option("apo", command->apo, "The .apo file")->required();
+  sub->add_option("points", command->points, "Points, one `x y z` per line (.xyz)")->required();
+  sub->add_option("-o,--out", command->output, "Output: one `nx ny nz` per point, `0 0 0` outside the octree")
+      ->required();
+  sub->add_option("--depth", command->depth, "Stop the walk at this depth")->capture_default_str();
+  sub->callback([command, &exitCode] { exitCode = guarded([&] { return runLookup(*command); }); });
+}
+
+}  // namespace apo::cli

@@ -1,0 +1,46 @@
+// What every `apo` subcommand shares: exit codes from errors, error
+// reporting, and a guard that turns escaped exceptions into internal errors.
+#pragma once
+
+#include "cli/commands.h"
+#include "core/error.h"
+
+#include <spdlog/spdlog.h>
+
+#include <filesystem>
+#include <new>
+#include <stdexcept>
+
+namespace apo::cli {
+
+inline int exitCodeFor(const Error& error) {
+  switch (error.kind) {
+    case ErrorKind::Usage: return kExitUsage;
+    case ErrorKind::BadInput: return kExitBadInput;
+    case ErrorKind::Internal: return kExitInternal;
+  }
+  return kExitInternal;
+}
+
+inline int reportFailure(const Error& error) {
+  spdlog::error("{}", error.message);
+  return exitCodeFor(error);
+}
+
+// Runs a command body, turning escaped exceptions into internal errors so
+// that no input ever ends in an uncaught exception.
+template <class Body>
+int guarded(Body&& body) {
+  try {
+    return body();
+  } catch (const std::bad_alloc&) {
+    return reportFailure(internalError("out of memory"));
+  } catch (const std::exception& exception) {
+    return reportFailure(internalError("unexpected failure: {}", exception.what()));
+  }
+}
+
+// A stage's error about an input, prefixed with the input's path.
+inline Error aboutInput(const std::filesystem::path& input, const Error& error) { return {error.kind, input.string() + ": " + error.message}; }
+
+}  // namespace apo::cli

@@ -1,0 +1,227 @@
+// The octree build (paper 3.1) against brute force: overlap tests against
+// dense sampling, clipped areas against Monte Carlo, the leaves' triangle
+// lists against testing every triangle, and refinement against where an
+// analytic normal field varies.
+#include "bake/octree_build.h"
+
+#include "tests/test_support.h"
+
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include <cmath>
+#include <numbers>
+#include <random>
+
+namespace apo::octree {
+namespace {
+
+Vec3f randomPoint(std::mt19937& rng, float lo, float hi) {
+  std::uniform_real_distribution<float> u(lo, hi);
+  return {u(rng), u(rng), u(rng)};
+}
+
+// Points spread over triangle abc on a barycentric grid of `n` steps.
+std::vector<Vec3f> trianglePoints(const Vec3f& a, const Vec3f& b, const Vec3f& c, int n) {
+  std::vector<Vec3f> points;
+  for (int i = 0; i <= n; ++i)
+    for (int j = 0; i + j <= n; ++j) {
+      const float u = static_cast<float>(i) / n, v = static_cast<float>(j) / n;
+      points.push_back(a + u * (b - a) + v * (c - a));
+    }
+  return points;
+}
+
+float distanceToCell(const Vec3f& p, const Cell& cell) {
+  return (p - p.cwiseMax(cell.lower()).cwiseMin(cell.upper())).norm();
+}
+
+TEST(TriangleOverlapsBox, AgreesWithDenseSampling) {
+  std::mt19937 rng(7);
+  int overlapping = 0, apart = 0;
+  for (int trial = 0; trial < 3000; ++trial) {
+    const Cell cell{randomPoint(rng, 0.3f, 0.7f), 0.2f, 3};
+    const Vec3f a = randomPoint(rng, 0.0f, 1.0f), b = randomPoint(rng, 0.0f, 1.0f), c = randomPoint(rng, 0.0f, 1.0f);
+    const int n = 300;
+    float nearest = 1e9f;
+    for (const Vec3f& p : trianglePoints(a, b, c, n)) nearest = std::min(nearest, distanceToCell(p, cell));
+    // Grid points are at most an edge / n apart: a triangle that meets the
+    // box has a grid point within that of it.
+    const float resolution = std::max({(b - a).norm(), (c - a).norm(), (c - b).norm()}) / n;
+    const bool overlaps = triangleOverlapsBox(a, b, c, cell);
+    if (nearest == 0.0f) {
+      EXPECT_TRUE(overlaps) << "trial " << trial;
+    }
+    if (nearest > resolution) {
+      EXPECT_FALSE(overlaps) << "trial " << trial << " nearest " << nearest;
+    }
+    (overlaps ? overlapping : apart) += 1;
+  }
+  EXPECT_GT(overlapping, 300);  // both outcomes were exercised
+  EXPECT_GT(apart, 300);
+}
+
+TEST(ClipTriangleToCell, AreaMatchesMonteCarlo) {
+  std::mt19937 rng(11);
+  for (int trial = 0; trial < 40; ++trial) {
+    const Cell cell{Vec3f(0.5f, 0.5f, 0.5f), 0.3f, 2};
+    const Vec3f a = randomPoint(rng, 0.2f, 0.8f), b = randomPoint(rng, 0.2f, 0.8f), c = randomPoint(rng, 0.2f, 0.8f);
+    const double area = 0.5 * (b - a).cast<double>().cross((c - a).cast<double>()).norm();
+    std::uniform_real_distribution<float> u(0.0f, 1.0f);
+    const int samples = 200000;
+    int inside = 0;
+    for (int s = 0; s < samples; ++s) {
+      float r1 = u(rng), r2 = u(rng);
+      if (r1 + r2 > 1.0f) r1 = 1.0f - r1, r2 = 1.0f - r2;
+      const Vec3f p = a + r1 * (b - a) + r2 * (c - a);
+      inside += distanceToCell(p, cell) == 0.0f ? 1 : 0;
+    }
+    const double expected = area * inside / samples;
+    // Binomial standard error of the fraction, times the area, times 5.
+    const double tolerance = 5.0 * area * std::sqrt(0.25 / samples) + 1e-7;
+    EXPECT_NEAR(polygonArea(clipTriangleToCell(a, b, c, cell)), expected, tolerance) << "trial " << trial;
+  }
+}
+
+TEST(NormalVariation, TwoNormalsAtAnAngle) {
+  DetailPrimitives detail;
+  const double angle = 0.6;
+  detail.normals = {Vec3f(1, 0, 0), Vec3f(static_cast<float>(std::cos(angle)), static_cast<float>(std::sin(angle)), 0)};
+  detail.weights = {1.0f, 1.0f};
+  // The mean is the bisector; each normal is angle / 2 from it.
+  const double each = 2.0 - 2.0 * std::cos(angle / 2.0);
+  EXPECT_NEAR(normalVariation(detail, {0, 1}), 2.0 * each, 1e-6);
+  EXPECT_EQ(normalVariation(detail, {0}), 0.0);
+  detail.weights = {3.0f, 3.0f};
+  EXPECT_NEAR(normalVariation(detail, {0, 1}), 6.0 * each, 1e-5);
+}
+
+// m: an icosphere in the unit cube; M: the same sphere's triangles, their
+// normals bent by a bump of angular radius ~0.3 rad around +z.
+struct SphereCase {
+  CoarseMesh coarse;
+  DetailPrimitives detail;
+};
+
+bool inBump(const Vec3f& directionFromCentre) { return directionFromCentre.normalized().z() > std::cos(0.3f); }
+
+SphereCase bumpySphereCase() {
+  const Scan sphere = test::makeIcosphere(3);
+  const Scan dense = test::makeIcosphere(5);
+  SphereCase c;
+  const auto toUnit = [](const Vec3f& p) { return Vec3f(0.5f + 0.4f * p.x(), 0.5f + 0.4f * p.y(), 0.5f + 0.4f * p.z()); };
+  for (const Vec3f& p : sphere.points.positions) c.coarse.positions.push_back(toUnit(p));
+  c.coarse.triangles = sphere.triangles;
+  for (const Vec3f& p : dense.points.positions) c.detail.positions.push_back(toUnit(p));
+  c.detail.triangles = dense.triangles;
+  for (const Triangle& t : dense.triangles) {
+    const Vec3f centroid = (dense.points.positions[t[0]] + dense.points.positions[t[1]] + dense.points.positions[t[2]]) / 3.0f;
+    Vec3f normal = centroid.normalized();
+    // In the bump, the normal wobbles with the longitude: high variation.
+    if (inBump(centroid)) normal = (normal + 0.5f * Vec3f(std::sin(40.0f * centroid.x()), std::cos(40.0f * centroid.y()), 0.0f)).normalized();
+    c.detail.normals.push_back(normal);
+    c.detail.weights.push_back(1.0f);
+  }
+  return c;
+}
+
+Cell cellOfNode(const Octree& octree, std::uint32_t target) {
+  // Walks from the root: nodes are reached through their parents' broods.
+  std::vector<Cell> cells(octree.nodes.size());
+  for (std::uint32_t n = 0; n < octree.nodes.size(); ++n) {
+    const OctreeNode& node = octree.nodes[n];
+    std::uint32_t child = node.firstChild;
+    for (int c = 0; c < 8; ++c)
+      if (node.childMask & (1u << c)) cells[child++] = cells[n].child(c);
+  }
+  return cells[target];
+}
+
+TEST(BuildOctree, LeavesHoldExactlyTheTrianglesOfMThatOverlapThem) {
+  const SphereCase c = bumpySphereCase();
+  const BuiltOctree built = buildOctree(c.coarse, c.detail, {3, 7, 0.05});
+  const Octree& octree = built.octree;
+  ASSERT_GT(octree.nodes.size(), 100u);
+  std::vector<Cell> cells(octree.nodes.size());
+  std::uint64_t leaves = 0;
+  for (std::uint32_t n = 0; n < octree.nodes.size(); ++n) {
+    const OctreeNode& node = octree.nodes[n];
+    if (node.isLeaf()) {
+      ++leaves;
+      std::vector<std::uint32_t> expected;
+      for (std::uint32_t t = 0; t < c.coarse.triangles.size(); ++t) {
+        const Triangle& tri = c.coarse.triangles[t];
+        if (triangleOverlapsBox(c.coarse.positions[tri[0]], c.coarse.positions[tri[1]], c.coarse.positions[tri[2]], cells[n]))
+          expected.push_back(t);
+      }
+      const std::vector<std::uint32_t> listed(built.leafTriangles.begin() + static_cast<std::ptrdiff_t>(built.leafTriangleBegin[n]),
+                                              built.leafTriangles.begin() + static_cast<std::ptrdiff_t>(built.leafTriangleBegin[n + 1]));
+      EXPECT_EQ(listed, expected) << "leaf " << n;
+      EXPECT_FALSE(expected.empty());
+      continue;
+    }
+    EXPECT_EQ(built.leafTriangleBegin[n], built.leafTriangleBegin[n + 1]) << "internal node " << n << " has triangles";
+    ASSERT_GT(node.firstChild, n) << "children come after their parent";
+    std::uint32_t child = node.firstChild;
+    for (int k = 0; k < 8; ++k) {
+      const Cell childCell = cells[n].child(k);
+      // A child exists exactly when some triangle of m meets it.
+      bool met = false;
+      for (const Triangle& tri : c.coarse.triangles)
+        met = met || triangleOverlapsBox(c.coarse.positions[tri[0]], c.coarse.positions[tri[1]], c.coarse.positions[tri[2]], childCell);
+      EXPECT_EQ(met, (node.childMask & (1u << k)) != 0) << "node " << n << " child " << k;
+      if (node.childMask & (1u << k)) {
+        EXPECT_EQ(octree.nodes[child].depth, node.depth + 1);
+        cells[child++] = childCell;
+      }
+    }
+  }
+  EXPECT_GT(leaves, 0u);
+}
+
+TEST(BuildOctree, RefinesWhereTheNormalsVaryAndOnlyThere) {
+  // Outside the bump M's normals are radial: a depth-6 cell (1/64 of the
+  // cube, 0.04 rad of this sphere) holds a few of M's triangles (each
+  // counted wherever it overlaps) within 0.02 rad of their mean, L2,1 ~
+  // 5 x 0.02^2 < 0.05: no leaf there reaches depth 7. In the bump the
+  // normals wobble by ~0.5 over less than a depth-7 cell: leaves at the
+  // maximum depth, 7.
+  const SphereCase c = bumpySphereCase();
+  const BuiltOctree built = buildOctree(c.coarse, c.detail, {3, 7, 0.05});
+  int inBumpLeaves = 0, inBumpDeepest = 0, outsideLeaves = 0, outsideDeepest = 0;
+  for (std::uint32_t n = 0; n < built.octree.nodes.size(); ++n) {
+    const OctreeNode& node = built.octree.nodes[n];
+    if (!node.isLeaf()) continue;
+    const Vec3f direction = cellOfNode(built.octree, n).centre - Vec3f::Constant(0.5f);
+    if (inBump(direction)) {
+      ++inBumpLeaves;
+      inBumpDeepest += node.depth == 7 ? 1 : 0;
+    } else if (direction.normalized().z() < std::cos(0.4f)) {  // clear of the bump's edge
+      ++outsideLeaves;
+      outsideDeepest += node.depth == 7 ? 1 : 0;
+    }
+  }
+  ASSERT_GT(inBumpLeaves, 100);
+  ASSERT_GT(outsideLeaves, 100);
+  EXPECT_GT(inBumpDeepest, 0.95 * inBumpLeaves);
+  EXPECT_EQ(outsideDeepest, 0);
+}
+
+TEST(BuildOctree, SameTreeWithOneOrTwoThreads) {
+  const SphereCase c = bumpySphereCase();
+  const auto build = [&](int threads) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
+    return buildOctree(c.coarse, c.detail, {3, 7, 0.05});
+  };
+  const BuiltOctree one = build(1), two = build(2);
+  ASSERT_EQ(one.octree.nodes.size(), two.octree.nodes.size());
+  for (std::size_t n = 0; n < one.octree.nodes.size(); ++n) {
+    EXPECT_EQ(one.octree.nodes[n].firstChild, two.octree.nodes[n].firstChild);
+    EXPECT_EQ(one.octree.nodes[n].childMask, two.octree.nodes[n].childMask);
+  }
+  EXPECT_EQ(one.leafTriangles, two.leafTriangles);
+  EXPECT_EQ(one.leafTriangleBegin, two.leafTriangleBegin);
+}
+
+}  // namespace
+}  // namespace apo::octree
