@@ -112,6 +112,14 @@ namespace apo {
 // Embree BVH over a triangle mesh. Error (Internal) if Embree fails.
 Result<std::unique_ptr<RayCaster>> makeEmbreeMeshCaster(const Scan& mesh);
 
+// Embree BVH over one oriented disc per point (centre = the point, plane
+// normal = its normal, radius = radii[i], in world units). Discs are hit from
+// either side; hit.primitive is the point index, hit.geometricNormal the
+// point's normal (as given), u = v = 0. BadInput unless every point has a
+// normal and radii holds one finite positive radius per point; Internal if
+// Embree fails. The caster copies its input.
+Result<std::unique_ptr<RayCaster>> makeEmbreeDiscCaster(const PointSet& points, const std::vector<float>& radii);
+
 struct SimulateScanOptions {
   int views = 8;                   // scanner positions on a sphere around the mesh
   int raysPerSide = 200;           // each view casts raysPerSide^2 rays

@@ -59,9 +59,12 @@ CommandResult runCommand(const std::string& command) {
 
 }  // namespace apo::test
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <numbers>
+#include <optional>
 #include <random>
 
 namespace apo::test {
@@ -138,6 +141,158 @@ std::vector<Vec3f> fibonacciSpherePoints(std::size_t count) {
     points.emplace_back(static_cast<float>(r * std::cos(a)), static_cast<float>(r * std::sin(a)), static_cast<float>(z));
   }
   return points;
+}
+
+}  // namespace apo::test
+
+// ---- Brute-force seams -------------------------------------------------------
+
+namespace apo::test {
+namespace {
+
+using Vec3d = Eigen::Vector3d;
+
+Vec3d wide(const Vec3f& v) { return v.cast<double>(); }
+
+// Moller-Trumbore: t and the barycentrics (u, v) of b and c, if the line hits.
+std::optional<std::array<double, 3>> lineTriangle(const Vec3d& origin, const Vec3d& direction, const Vec3d& a,
+                                                  const Vec3d& b, const Vec3d& c) {
+  const Vec3d e1 = b - a, e2 = c - a;
+  const Vec3d p = direction.cross(e2);
+  const double det = e1.dot(p);
+  if (det == 0.0) return std::nullopt;  // parallel or degenerate
+  const Vec3d s = origin - a;
+  const double u = s.dot(p) / det;
+  const Vec3d q = s.cross(e1);
+  const double v = direction.dot(q) / det;
+  if (u < 0.0 || v < 0.0 || u + v > 1.0) return std::nullopt;
+  return std::array<double, 3>{e2.dot(q) / det, u, v};
+}
+
+// The line's parameter t where it crosses the disc, if it does.
+std::optional<double> lineDisc(const Vec3d& origin, const Vec3d& direction, const Vec3d& centre, const Vec3d& normal,
+                               double radius) {
+  const double denominator = normal.dot(direction);
+  if (denominator == 0.0) return std::nullopt;  // parallel to the disc's plane
+  const double t = normal.dot(centre - origin) / denominator;
+  if ((origin + t * direction - centre).squaredNorm() > radius * radius) return std::nullopt;
+  return t;
+}
+
+// Closest point of a segment to q.
+Vec3d closestOnSegment(const Vec3d& q, const Vec3d& from, const Vec3d& to) {
+  const Vec3d edge = to - from;
+  const double length2 = edge.squaredNorm();
+  if (length2 == 0.0) return from;
+  return from + std::clamp(edge.dot(q - from) / length2, 0.0, 1.0) * edge;
+}
+
+// Barycentrics of x (in the triangle's plane) from the signed sub-areas.
+Vec3d barycentrics(const Vec3d& x, const Vec3d& a, const Vec3d& b, const Vec3d& c) {
+  const Vec3d n = (b - a).cross(c - a);
+  const double area2 = n.squaredNorm();
+  const double wa = (c - b).cross(x - b).dot(n) / area2;
+  const double wb = (a - c).cross(x - c).dot(n) / area2;
+  return {wa, wb, 1.0 - wa - wb};
+}
+
+// Closest point on a triangle: the plane projection when inside, else the
+// nearest of the closest points of its three edges.
+Vec3d closestOnTriangle(const Vec3d& q, const Vec3d& a, const Vec3d& b, const Vec3d& c) {
+  const Vec3d n = (b - a).cross(c - a);
+  if (n.squaredNorm() > 0.0) {
+    const Vec3d projection = q - (q - a).dot(n) / n.squaredNorm() * n;
+    if (barycentrics(projection, a, b, c).minCoeff() >= 0.0) return projection;
+  }
+  Vec3d best = closestOnSegment(q, a, b);
+  for (const Vec3d& x : {closestOnSegment(q, b, c), closestOnSegment(q, c, a)})
+    if ((q - x).squaredNorm() < (q - best).squaredNorm()) best = x;
+  return best;
+}
+
+}  // namespace
+
+BruteForceCaster::BruteForceCaster(const Scan& detail, std::vector<float> discRadii)
+    : detail_(detail), radii_(std::move(discRadii)) {
+  if (!detail_.isMesh() && (radii_.size() != detail_.points.size() || !detail_.points.hasNormals()))
+    ADD_FAILURE() << "BruteForceCaster over points needs a normal and a radius per point";
+}
+
+void BruteForceCaster::intersect(const std::vector<Ray>& rays, std::vector<RayHit>& hits) const {
+  hits.clear();
+  for (const Ray& ray : rays) hits.push_back(castOne(ray));
+}
+
+RayHit BruteForceCaster::castOne(const Ray& ray) const {
+  const Vec3d origin = wide(ray.origin), direction = wide(ray.direction);
+  const auto& p = detail_.points.positions;
+  RayHit best;
+  double bestT = std::numeric_limits<double>::infinity();
+  auto accept = [&](double t, std::size_t primitive) {
+    if (t < ray.tNear || t > ray.tFar || t >= bestT) return false;
+    bestT = t;
+    best.primitive = static_cast<std::uint32_t>(primitive);
+    best.t = static_cast<float>(t);
+    return true;
+  };
+  if (detail_.isMesh()) {
+    for (std::size_t i = 0; i < detail_.triangles.size(); ++i) {
+      const Triangle& tri = detail_.triangles[i];
+      const auto hit = lineTriangle(origin, direction, wide(p[tri[0]]), wide(p[tri[1]]), wide(p[tri[2]]));
+      if (!hit || !accept((*hit)[0], i)) continue;
+      best.u = static_cast<float>((*hit)[1]);
+      best.v = static_cast<float>((*hit)[2]);
+      best.geometricNormal = (p[tri[1]] - p[tri[0]]).cross(p[tri[2]] - p[tri[0]]);
+    }
+    return best;
+  }
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const auto t = lineDisc(origin, direction, wide(p[i]), wide(detail_.points.normals[i]), radii_[i]);
+    if (!t || !accept(*t, i)) continue;
+    best.u = best.v = 0.0f;
+    best.geometricNormal = detail_.points.normals[i];
+  }
+  return best;
+}
+
+BruteForceClosestPoint::BruteForceClosestPoint(const Scan& detail) : detail_(detail) {
+  if (!detail_.points.hasNormals()) ADD_FAILURE() << "BruteForceClosestPoint needs normals";
+}
+
+SurfacePoint BruteForceClosestPoint::closest(const Vec3f& query) const {
+  return detail_.isMesh() ? closestOnMesh(query) : closestPoint(query);
+}
+
+SurfacePoint BruteForceClosestPoint::closestOnMesh(const Vec3f& query) const {
+  const auto& p = detail_.points.positions;
+  const Vec3d q = wide(query);
+  double bestDistance2 = std::numeric_limits<double>::infinity();
+  Vec3d bestPoint = Vec3d::Zero();
+  std::size_t bestTriangle = 0;
+  for (std::size_t i = 0; i < detail_.triangles.size(); ++i) {
+    const Triangle& t = detail_.triangles[i];
+    const Vec3d x = closestOnTriangle(q, wide(p[t[0]]), wide(p[t[1]]), wide(p[t[2]]));
+    if ((q - x).squaredNorm() < bestDistance2) {
+      bestDistance2 = (q - x).squaredNorm();
+      bestPoint = x;
+      bestTriangle = i;
+    }
+  }
+  const Triangle& t = detail_.triangles[bestTriangle];
+  const Vec3d a = wide(p[t[0]]), b = wide(p[t[1]]), c = wide(p[t[2]]);
+  const auto& n = detail_.points.normals;
+  Vec3d weights = (b - a).cross(c - a).squaredNorm() > 0.0 ? barycentrics(bestPoint, a, b, c) : Vec3d(1, 0, 0);
+  Vec3d normal = weights.x() * wide(n[t[0]]) + weights.y() * wide(n[t[1]]) + weights.z() * wide(n[t[2]]);
+  if (normal.squaredNorm() < 1e-12) normal = (b - a).cross(c - a);  // opposite vertex normals cancel
+  return {bestPoint.cast<float>(), normal.normalized().cast<float>()};
+}
+
+SurfacePoint BruteForceClosestPoint::closestPoint(const Vec3f& query) const {
+  const auto& p = detail_.points.positions;
+  std::size_t nearest = 0;
+  for (std::size_t i = 1; i < p.size(); ++i)
+    if ((wide(p[i]) - wide(query)).squaredNorm() < (wide(p[nearest]) - wide(query)).squaredNorm()) nearest = i;
+  return {p[nearest], detail_.points.normals[nearest]};
 }
 
 }  // namespace apo::test

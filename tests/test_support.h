@@ -31,9 +31,45 @@ CommandResult runCommand(const std::string& command);
 
 }  // namespace apo::test
 
+#include "bake/bake.h"
 #include "core/geometry.h"
+#include "core/ray_caster.h"
 
 namespace apo::test {
+
+// Brute-force ray caster, the independent reference for Embree: every ray
+// against every primitive, in double precision. A mesh's triangles are hit by
+// Moller-Trumbore (u, v barycentrics, geometricNormal (b-a) x (c-a)); a point
+// cloud's points are oriented discs of the given radii, hit from either side
+// (geometricNormal = the point's normal, u = v = 0). The nearest t in
+// [tNear, tFar] wins; on equal t the lower primitive index. Copies its input.
+class BruteForceCaster : public RayCaster {
+ public:
+  explicit BruteForceCaster(const Scan& detail, std::vector<float> discRadii = {});
+  void intersect(const std::vector<Ray>& rays, std::vector<RayHit>& hits) const override;
+
+ private:
+  RayHit castOne(const Ray& ray) const;
+  Scan detail_;
+  std::vector<float> radii_;
+};
+
+// Brute-force closest point, the independent reference for FLANN, in double
+// precision. Mesh: over ALL triangles, the plane projection when it falls
+// inside the triangle, else the closest point of its three edges; the normal
+// is the vertex normals interpolated by the barycentrics, normalised (the
+// face normal where they cancel). Points: the nearest point and its normal.
+// O(primitives) per query. Copies its input.
+class BruteForceClosestPoint : public ClosestPointFinder {
+ public:
+  explicit BruteForceClosestPoint(const Scan& detail);
+  SurfacePoint closest(const Vec3f& query) const override;
+
+ private:
+  SurfacePoint closestOnMesh(const Vec3f& query) const;
+  SurfacePoint closestPoint(const Vec3f& query) const;
+  Scan detail_;
+};
 
 // Unit-radius icosphere centred at the origin: an icosahedron whose faces are
 // split in four `subdivisions` times, vertices pushed onto the sphere.
