@@ -1,0 +1,238 @@
+// The whole bake against analytic ground truth: m an icosphere, M the same
+// sphere with smooth bumps whose exact normal is known everywhere.
+#include "bake/bake.h"
+
+#include "ingest/ingest.h"
+#include "tests/bake/bumpy_sphere.h"
+#include "tests/test_support.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <random>
+
+namespace apo {
+namespace {
+using ::testing::HasSubstr;
+
+double degreesBetween(const Vec3f& a, const Vec3f& b) {
+  return std::acos(std::clamp(static_cast<double>(a.normalized().dot(b.normalized())), -1.0, 1.0)) * 180.0 / std::numbers::pi;
+}
+
+// World-space centre of every node, walking the broods from the root.
+std::vector<Vec3f> nodeCentres(const Octree& octree) {
+  std::vector<Vec3f> unit(octree.nodes.size(), Vec3f::Constant(0.5f));
+  std::vector<float> width(octree.nodes.size(), 1.0f);
+  for (std::uint32_t n = 0; n < octree.nodes.size(); ++n) {
+    const OctreeNode& node = octree.nodes[n];
+    std::uint32_t child = node.firstChild;
+    for (int c = 0; c < 8; ++c)
+      if (node.childMask & (1u << c)) {
+        unit[child] = childCentre(unit[n], width[n], c);
+        width[child++] = 0.5f * width[n];
+      }
+  }
+  std::vector<Vec3f> world;
+  for (const Vec3f& u : unit) world.push_back(octree.transform.toWorld(u));
+  return world;
+}
+
+// Random points on m's triangles (area-uniform enough for a check).
+std::vector<Vec3f> pointsOnMesh(const Scan& mesh, int count, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_int_distribution<std::size_t> pick(0, mesh.triangles.size() - 1);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  std::vector<Vec3f> points;
+  for (int i = 0; i < count; ++i) {
+    const Triangle& t = mesh.triangles[pick(rng)];
+    float r1 = u(rng), r2 = u(rng);
+    if (r1 + r2 > 1.0f) r1 = 1.0f - r1, r2 = 1.0f - r2;
+    const auto& p = mesh.points.positions;
+    points.push_back(p[t[0]] + r1 * (p[t[1]] - p[t[0]]) + r2 * (p[t[2]] - p[t[0]]));
+  }
+  return points;
+}
+
+BakeOptions testOptions() {
+  BakeOptions options;
+  options.coarseDepth = 4;
+  options.maxDepth = 9;
+  return options;
+}
+
+class BumpySphereBake : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    shape_ = new test::BumpySphere();
+    coarse_ = new Scan(test::makeIcosphere(3));  // 1,280 faces
+    detail_ = new Scan(shape_->mesh(6));          // 81,920 faces
+    auto bake = bakeApo(*detail_, *coarse_, testOptions());
+    ASSERT_TRUE(bake.ok()) << bake.error().message;
+    bake_ = new Bake(std::move(bake).value());
+  }
+  static void TearDownTestSuite() {
+    delete bake_;
+    delete detail_;
+    delete coarse_;
+    delete shape_;
+  }
+
+  static test::BumpySphere* shape_;
+  static Scan* coarse_;
+  static Scan* detail_;
+  static Bake* bake_;
+};
+
+test::BumpySphere* BumpySphereBake::shape_ = nullptr;
+Scan* BumpySphereBake::coarse_ = nullptr;
+Scan* BumpySphereBake::detail_ = nullptr;
+Bake* BumpySphereBake::bake_ = nullptr;
+
+TEST_F(BumpySphereBake, EveryLeafNormalIsCloseToTheAnalyticNormal) {
+  // A leaf holds the mean of M's normals over the patch of M facing its part
+  // of m; the truth compared is the exact normal straight out from the cell
+  // centre. The bumps turn the normal by at most ~4.5 degrees per 0.01 of
+  // arc (amplitude / width^2), and leaves that stopped refining hold little
+  // variation (L2,1 <= 0.05 in units of M's mean triangle).
+  const Octree& octree = bake_->octree;
+  const std::vector<Vec3f> centres = nodeCentres(octree);
+  double worst = 0.0, sum = 0.0;
+  std::uint64_t leaves = 0;
+  for (std::uint32_t n = 0; n < octree.nodes.size(); ++n) {
+    if (!octree.nodes[n].isLeaf()) continue;
+    const double error = degreesBetween(octree.nodes[n].normal, shape_->normal(centres[n]));
+    worst = std::max(worst, error);
+    sum += error;
+    ++leaves;
+  }
+  ASSERT_GT(leaves, 1000u);
+  EXPECT_LT(sum / leaves, 0.5);
+  EXPECT_LT(worst, 3.0);
+  // And the bake reached M nearly everywhere by rays.
+  EXPECT_LT(bake_->report.fallbacks, bake_->report.hits / 100);
+}
+
+TEST_F(BumpySphereBake, RefinementConcentratesLeavesOnTheBumps) {
+  // Leaves per unit area of the sphere, near the bumps and far from them.
+  const Octree& octree = bake_->octree;
+  const std::vector<Vec3f> centres = nodeCentres(octree);
+  double near = 0, far = 0;
+  for (std::uint32_t n = 0; n < octree.nodes.size(); ++n) {
+    if (!octree.nodes[n].isLeaf()) continue;
+    if (shape_->nearBump(centres[n], 2.0f * shape_->width)) ++near;
+    else if (!shape_->nearBump(centres[n], 3.5f * shape_->width)) ++far;
+  }
+  // Solid angles: 4 caps of angular radius 0.5 rad; the rest beyond 0.875 rad.
+  const double cap = [](double radius) { return 2.0 * std::numbers::pi * (1.0 - std::cos(radius)); }(0.5);
+  const double farCap = 2.0 * std::numbers::pi * (1.0 - std::cos(0.875));
+  const double nearDensity = near / (4.0 * cap), farDensity = far / (4.0 * std::numbers::pi - 4.0 * farCap);
+  EXPECT_GT(nearDensity, 3.0 * farDensity) << near << " leaves near, " << far << " far";
+}
+
+TEST_F(BumpySphereBake, ApoOnMBeatsMsOwnNormals) {
+  // The point of the method: at points of m, the APO's normal is far closer
+  // to M's than m's own interpolated normal is.
+  const auto points = pointsOnMesh(*coarse_, 20000, 3);
+  double apoError = 0.0, bareError = 0.0;
+  for (const Vec3f& p : points) {
+    const Lookup found = lookupTexture(bake_->texture, bake_->texture.transform.toUnit(p));
+    ASSERT_TRUE(found.found);
+    apoError += degreesBetween(found.normal, shape_->normal(p));
+    bareError += degreesBetween(p, shape_->normal(p));  // an icosphere's smooth normal is radial
+  }
+  apoError /= points.size();
+  bareError /= points.size();
+  EXPECT_LT(apoError, bareError / 3.0);
+  EXPECT_LT(apoError, 1.0);
+}
+
+TEST_F(BumpySphereBake, ReportCountsWhatWasBuilt) {
+  const BakeReport& r = bake_->report;
+  EXPECT_EQ(r.detailKind, "mesh");
+  EXPECT_EQ(r.detailPrimitives, 81920u);
+  EXPECT_EQ(r.leaves + r.internalNodes, bake_->octree.nodes.size());
+  std::uint64_t perDepth = 0;
+  for (const auto n : r.nodesPerDepth) perDepth += n;
+  EXPECT_EQ(perDepth, bake_->octree.nodes.size());
+  EXPECT_EQ(r.nodesPerDepth[0], 1u);
+  EXPECT_LE(r.nodesPerDepth.size(), 10u);  // depths 0..9
+  EXPECT_EQ(r.rays, 2 * (r.hits + r.fallbacks));
+  EXPECT_EQ(r.textureBytes, std::uint64_t{r.textureWidth} * r.textureHeight * 4);
+}
+
+TEST(Bake, SameBytesWithOneOrTwoThreads) {
+  const test::BumpySphere shape;
+  const Scan coarse = test::makeIcosphere(2);
+  const Scan detail = shape.mesh(5);
+  const auto bakeWithThreads = [&](int threads) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
+    auto bake = bakeApo(detail, coarse, testOptions());
+    EXPECT_TRUE(bake.ok());
+    return bake->texture.texels;
+  };
+  EXPECT_EQ(bakeWithThreads(1), bakeWithThreads(2));
+}
+
+TEST(Bake, PointsFromAScanGiveNormalsCloseToTheMeshBake) {
+  // M as a simulated scan of the bumpy sphere (noise, misregistration,
+  // normals estimated by ingest) against M as the exact dense mesh.
+  const test::BumpySphere shape;
+  const Scan coarse = test::makeIcosphere(3);
+  const Scan dense = shape.mesh(6);
+  SimulateScanOptions scanner;
+  scanner.views = 10;
+  scanner.raysPerSide = 300;
+  auto scanned = simulateScan(dense, scanner);
+  ASSERT_TRUE(scanned.ok());
+  const auto path = test::freshTempDir() / "bumpy.ply";
+  ASSERT_TRUE(writePly(path, scanned->scan).ok());
+  auto ingested = ingestScan(path, IngestOptions{});
+  ASSERT_TRUE(ingested.ok()) << ingested.error().message;
+  auto fromPoints = bakeApo(ingested->scan, coarse, testOptions());
+  ASSERT_TRUE(fromPoints.ok()) << fromPoints.error().message;
+  EXPECT_EQ(fromPoints->report.detailKind, "points");
+  auto fromMesh = bakeApo(dense, coarse, testOptions());
+  ASSERT_TRUE(fromMesh.ok());
+  double difference = 0.0, truthError = 0.0;
+  const auto points = pointsOnMesh(coarse, 20000, 5);
+  for (const Vec3f& p : points) {
+    const Lookup a = lookupTexture(fromPoints->texture, fromPoints->texture.transform.toUnit(p));
+    const Lookup b = lookupTexture(fromMesh->texture, fromMesh->texture.transform.toUnit(p));
+    ASSERT_TRUE(a.found && b.found);
+    difference += degreesBetween(a.normal, b.normal);
+    truthError += degreesBetween(a.normal, shape.normal(p));
+  }
+  // Estimated normals of a noisy scan are off by about a degree.
+  EXPECT_LT(difference / points.size(), 2.0);
+  EXPECT_LT(truthError / points.size(), 2.0);
+}
+
+TEST(Bake, BadInputsAndOptionsAreRefused) {
+  const Scan coarse = test::makeIcosphere(1);
+  Scan cloud;
+  cloud.points.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  auto noTriangles = bakeApo(coarse, cloud, BakeOptions{});
+  ASSERT_FALSE(noTriangles.ok());
+  EXPECT_EQ(noTriangles.error().kind, ErrorKind::BadInput);
+  EXPECT_THAT(noTriangles.error().message, HasSubstr("coarse mesh"));
+  auto noNormals = bakeApo(cloud, coarse, BakeOptions{});
+  ASSERT_FALSE(noNormals.ok());
+  EXPECT_THAT(noNormals.error().message, HasSubstr("normals"));
+  BakeOptions options;
+  options.maxDepth = 2;
+  options.coarseDepth = 3;
+  EXPECT_EQ(bakeApo(coarse, coarse, options).error().kind, ErrorKind::Usage);
+  options = {};
+  options.samples = 0;
+  EXPECT_EQ(bakeApo(coarse, coarse, options).error().kind, ErrorKind::Usage);
+  options = {};
+  options.completeDepth = 7;
+  EXPECT_EQ(bakeApo(coarse, coarse, options).error().kind, ErrorKind::Usage);
+}
+
+}  // namespace
+}  // namespace apo

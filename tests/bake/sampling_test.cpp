@@ -1,0 +1,178 @@
+// The sampling (paper 3.2) against independent references: the same bake
+// through brute-force ray casting and closest points must match Embree and
+// FLANN, and the leaf normals must match the normal field integrated over
+// each leaf's part of m.
+#include "bake/bake.h"
+#include "bake/sampling.h"
+
+#include "ingest/ingest.h"
+#include "tests/bake/bumpy_sphere.h"
+#include "tests/test_support.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+namespace apo {
+namespace {
+
+double degreesBetween(const Vec3f& a, const Vec3f& b) {
+  return std::acos(std::clamp(static_cast<double>(a.normalized().dot(b.normalized())), -1.0, 1.0)) * 180.0 / std::numbers::pi;
+}
+
+BakeOptions smallOptions() {
+  BakeOptions options;
+  options.coarseDepth = 3;
+  options.maxDepth = 6;
+  return options;
+}
+
+double worstLeafDifference(const Octree& a, const Octree& b) {
+  EXPECT_EQ(a.nodes.size(), b.nodes.size());
+  double worst = 0.0;
+  for (std::size_t n = 0; n < std::min(a.nodes.size(), b.nodes.size()); ++n)
+    worst = std::max(worst, degreesBetween(a.nodes[n].normal, b.nodes[n].normal));
+  return worst;
+}
+
+TEST(Sampling, EmbreeAndFlannAgreeWithBruteForceOnAMesh) {
+  const test::BumpySphere shape;
+  const Scan coarse = test::makeIcosphere(2);
+  const Scan detail = shape.mesh(4);
+  auto production = bakeApo(detail, coarse, smallOptions());
+  ASSERT_TRUE(production.ok()) << production.error().message;
+  const test::BruteForceCaster caster(detail);
+  const test::BruteForceClosestPoint closest(detail);
+  DetailSurface surface;
+  surface.detail = &detail;
+  surface.caster = &caster;
+  surface.closest = &closest;
+  auto reference = bakeWith(surface, coarse, smallOptions());
+  ASSERT_TRUE(reference.ok()) << reference.error().message;
+  EXPECT_EQ(production->report.hits, reference->report.hits);
+  EXPECT_EQ(production->report.fallbacks, reference->report.fallbacks);
+  EXPECT_LT(worstLeafDifference(production->octree, reference->octree), 0.01);
+}
+
+TEST(Sampling, EmbreeDiscsAgreeWithBruteForceOnPoints) {
+  const test::BumpySphere shape;
+  const Scan coarse = test::makeIcosphere(2);
+  Scan points = shape.mesh(4);
+  points.triangles.clear();  // the vertices, with their exact normals
+  auto production = bakeApo(points, coarse, smallOptions());
+  ASSERT_TRUE(production.ok()) << production.error().message;
+  const std::vector<float> radii = discRadii(points.points);
+  const test::BruteForceCaster caster(points, radii);
+  const test::BruteForceClosestPoint closest(points);
+  DetailSurface surface;
+  surface.detail = &points;
+  surface.caster = &caster;
+  surface.closest = &closest;
+  for (const float r : radii) surface.pointAreas.push_back(r * r);
+  auto reference = bakeWith(surface, coarse, smallOptions());
+  ASSERT_TRUE(reference.ok()) << reference.error().message;
+  EXPECT_EQ(production->report.hits, reference->report.hits);
+  EXPECT_LT(worstLeafDifference(production->octree, reference->octree), 0.01);
+}
+
+// m: one large triangle in z = 0. M: a fine grid just above it whose normal
+// field tilts along x, n(x) = normalize(sin(3 x), 0, 1). The truth for a leaf
+// is n averaged over the part of m inside it, integrated densely here.
+struct TiltedField {
+  Scan coarse, detail;
+
+  static Vec3f normalAt(float x) { return Vec3f(std::sin(3.0f * x), 0.0f, 1.0f).normalized(); }
+
+  TiltedField() {
+    coarse.points.positions = {{-1, -1, 0}, {3, -1, 0}, {-1, 3, 0}};
+    coarse.points.normals.assign(3, Vec3f::UnitZ());
+    coarse.triangles = {{0, 1, 2}};
+    const int n = 200;
+    for (int j = 0; j <= n; ++j)
+      for (int i = 0; i <= n; ++i) {
+        const float x = -1.0f + 4.0f * i / n, y = -1.0f + 4.0f * j / n;
+        detail.points.positions.emplace_back(x, y, 0.005f);
+        detail.points.normals.push_back(normalAt(x));
+      }
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) {
+        const auto v = [n](int a, int b) { return static_cast<std::uint32_t>(b * (n + 1) + a); };
+        detail.triangles.push_back({v(i, j), v(i + 1, j), v(i + 1, j + 1)});
+        detail.triangles.push_back({v(i, j), v(i + 1, j + 1), v(i, j + 1)});
+      }
+  }
+};
+
+// Mean over the leaves of the angle between the leaf's normal and the field
+// averaged over m inside the leaf (dense samples of the triangle).
+double meanErrorAgainstIntegratedField(const Bake& bake, const TiltedField& field) {
+  const Octree& octree = bake.octree;
+  std::vector<Vec3f> centre(octree.nodes.size(), Vec3f::Constant(0.5f));
+  std::vector<float> width(octree.nodes.size(), 1.0f);
+  for (std::uint32_t n = 0; n < octree.nodes.size(); ++n) {
+    std::uint32_t child = octree.nodes[n].firstChild;
+    for (int c = 0; c < 8; ++c)
+      if (octree.nodes[n].childMask & (1u << c)) {
+        centre[child] = childCentre(centre[n], width[n], c);
+        width[child++] = 0.5f * width[n];
+      }
+  }
+  double sum = 0.0;
+  int leaves = 0;
+  for (std::uint32_t n = 0; n < octree.nodes.size(); ++n) {
+    if (!octree.nodes[n].isLeaf()) continue;
+    Vec3f integrated = Vec3f::Zero();
+    const int steps = 60;
+    for (int i = 0; i < steps; ++i)
+      for (int j = 0; j < steps; ++j) {
+        const Vec3f unit = centre[n] + width[n] * Vec3f((i + 0.5f) / steps - 0.5f, (j + 0.5f) / steps - 0.5f, 0.0f);
+        const Vec3f world = octree.transform.toWorld(Vec3f(unit.x(), unit.y(), octree.transform.toUnit(Vec3f::Zero()).z()));
+        if (world.x() < -1.0f || world.y() < -1.0f || world.x() + world.y() > 2.0f) continue;  // outside m
+        integrated += TiltedField::normalAt(world.x());
+      }
+    if (integrated.squaredNorm() == 0.0f) continue;
+    sum += degreesBetween(octree.nodes[n].normal, integrated);
+    ++leaves;
+  }
+  return sum / leaves;
+}
+
+TEST(Sampling, SeveralOriginsPerTriangleFollowTheFieldBetterThanOne) {
+  const TiltedField field;
+  BakeOptions options;
+  options.coarseDepth = 2;
+  options.maxDepth = 2;  // large cells, one large triangle: the case K > 1 is for
+  options.samples = 1;
+  auto paper = bakeApo(field.detail, field.coarse, options);
+  ASSERT_TRUE(paper.ok()) << paper.error().message;
+  options.samples = 16;
+  auto stratified = bakeApo(field.detail, field.coarse, options);
+  ASSERT_TRUE(stratified.ok());
+  const double paperError = meanErrorAgainstIntegratedField(*paper, field);
+  const double stratifiedError = meanErrorAgainstIntegratedField(*stratified, field);
+  EXPECT_LT(stratifiedError, paperError / 3.0) << "1 origin: " << paperError << " deg, 16: " << stratifiedError;
+  EXPECT_LT(stratifiedError, 0.5);
+  EXPECT_EQ(paper->report.rays, 2 * paper->report.leaves);  // one triangle, one origin per leaf
+}
+
+TEST(ClosestPointBarycentrics, MatchesDenseSearch) {
+  const Vec3f a(0, 0, 0), b(1, 0, 0), c(0.2f, 0.9f, 0.1f);
+  for (const Vec3f& p : {Vec3f(0.3f, 0.3f, 1.0f), Vec3f(-1, -1, 0), Vec3f(2, 0.1f, 0), Vec3f(0.5f, -0.5f, 0.3f),
+                         Vec3f(0.1f, 2.0f, -0.2f), Vec3f(0.9f, 0.9f, 0.0f)}) {
+    const Eigen::Vector3f w = sampling::closestPointBarycentrics(p, a, b, c);
+    const Vec3f q = w[0] * a + w[1] * b + w[2] * c;
+    float best = 1e9f;
+    const int n = 400;
+    for (int i = 0; i <= n; ++i)
+      for (int j = 0; i + j <= n; ++j)
+        best = std::min(best, (a + (b - a) * (float(i) / n) + (c - a) * (float(j) / n) - p).norm());
+    EXPECT_NEAR((q - p).norm(), best, 2e-3f);
+    EXPECT_NEAR(w.sum(), 1.0f, 1e-5f);
+    EXPECT_GE(w.minCoeff(), 0.0f);
+  }
+}
+
+}  // namespace
+}  // namespace apo
