@@ -7,6 +7,7 @@
 #include "ingest/ingest.h"
 
 #include <spdlog/spdlog.h>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cmath>
@@ -65,26 +66,70 @@ octree::CoarseMesh coarseInUnitCube(const Scan& coarse, const UnitCubeTransform&
   return unit;
 }
 
-// M's primitives with their unit normals and weights (area over the mean
-// area), as the L2,1 metric reads them.
-octree::DetailPrimitives detailInUnitCube(const DetailSurface& surface, const UnitCubeTransform& transform) {
+// Where each of M's primitives lies on m: M's normal through the
+// primitive's centre, cast both ways, meets m within `reach`; a primitive
+// whose line misses m keeps its own position. The paper files M's triangles
+// under the cells they overlap, but only cells around m are kept, so detail
+// of M farther from m than a cell's width would never be seen by the error
+// metric (the limitation its section 6 notes); filed where they project onto
+// m, they are counted in the cells whose texels will show them.
+std::vector<Vec3f> projectOntoCoarse(const std::vector<Vec3f>& centres, const std::vector<Vec3f>& normals,
+                                     const RayCaster& coarse, float reach) {
+  std::vector<Vec3f> projected(centres.size());
+  constexpr std::size_t kChunk = 8192;
+  tbb::parallel_for(std::size_t{0}, (centres.size() + kChunk - 1) / kChunk, [&](std::size_t chunk) {
+    const std::size_t begin = chunk * kChunk, end = std::min(centres.size(), begin + kChunk);
+    std::vector<Ray> rays;
+    for (std::size_t i = begin; i < end; ++i)
+      for (const float direction : {1.0f, -1.0f}) {
+        Ray ray;
+        ray.origin = centres[i];
+        ray.direction = direction * normals[i];
+        ray.tFar = reach;
+        rays.push_back(ray);
+      }
+    std::vector<RayHit> hits;
+    coarse.intersect(rays, hits);
+    for (std::size_t i = begin; i < end; ++i) {
+      const RayHit& forward = hits[2 * (i - begin)];
+      const RayHit& backward = hits[2 * (i - begin) + 1];
+      if (!forward.hit() && !backward.hit()) {
+        projected[i] = centres[i];
+        continue;
+      }
+      const bool useForward = forward.hit() && (!backward.hit() || forward.t <= backward.t);
+      const RayHit& hit = useForward ? forward : backward;
+      projected[i] = centres[i] + (useForward ? hit.t : -hit.t) * normals[i];
+    }
+  });
+  return projected;
+}
+
+// M's primitives for the error metric, in unit-cube coordinates: each is a
+// point (its projection onto m) with its unit normal and its weight, its area
+// over the mean area (for points, the squared disc radius).
+octree::DetailPrimitives detailForErrorMetric(const DetailSurface& surface, const RayCaster& coarseCaster, float reach,
+                                              const UnitCubeTransform& transform) {
   const Scan& M = *surface.detail;
+  std::vector<Vec3f> centres;
   octree::DetailPrimitives detail;
-  detail.positions.reserve(M.points.size());
-  for (const Vec3f& p : M.points.positions) detail.positions.push_back(transform.toUnit(p));
   if (M.isMesh()) {
-    detail.triangles = M.triangles;
+    centres.reserve(M.triangles.size());
     for (const Triangle& t : M.triangles) {
-      const Vec3f& a = M.points.positions[t[0]];
-      const Vec3f areaNormal = 0.5f * (M.points.positions[t[1]] - a).cross(M.points.positions[t[2]] - a);
+      const Vec3f &a = M.points.positions[t[0]], &b = M.points.positions[t[1]], &c = M.points.positions[t[2]];
+      const Vec3f areaNormal = 0.5f * (b - a).cross(c - a);
       const float area = areaNormal.norm();
+      centres.push_back((a + b + c) / 3.0f);
       detail.normals.push_back(area > 0.0f ? Vec3f(areaNormal / area) : Vec3f(Vec3f::Zero()));
       detail.weights.push_back(area);
     }
   } else {
+    centres = M.points.positions;
     detail.normals = M.points.normals;
     detail.weights = surface.pointAreas.empty() ? std::vector<float>(M.points.size(), 1.0f) : surface.pointAreas;
   }
+  for (const Vec3f& p : projectOntoCoarse(centres, detail.normals, coarseCaster, reach))
+    detail.positions.push_back(transform.toUnit(p));
   const double total = std::accumulate(detail.weights.begin(), detail.weights.end(), 0.0);
   const double mean = total / static_cast<double>(std::max<std::size_t>(1, detail.weights.size()));
   if (mean > 0.0)
@@ -118,9 +163,12 @@ Result<Bake> bakeWith(const DetailSurface& detail, const Scan& coarse, const Bak
   const octree::CoarseMesh coarseUnit = coarseInUnitCube(coarse, transform);
   const std::vector<Vec3f> coarseNormals =
       coarse.points.normals.size() == coarse.points.size() ? coarse.points.normals : areaWeightedVertexNormals(coarse);
+  const float reach = static_cast<float>(options.maxDistance * box.diagonal());
+  auto coarseCaster = makeEmbreeMeshCaster(coarse);
+  if (!coarseCaster) return coarseCaster.error();
   octree::BuiltOctree built;
   {
-    const octree::DetailPrimitives primitives = detailInUnitCube(detail, transform);
+    const octree::DetailPrimitives primitives = detailForErrorMetric(detail, **coarseCaster, reach, transform);
     report.seconds.setup += phase.seconds();
     phase = Stopwatch();
     built = octree::buildOctree(coarseUnit, primitives, {options.coarseDepth, options.maxDepth, options.error});
@@ -130,7 +178,7 @@ Result<Bake> bakeWith(const DetailSurface& detail, const Scan& coarse, const Bak
   spdlog::info("bake: octree of {} nodes built in {:.2f} s", built.octree.nodes.size(), report.seconds.build);
 
   phase = Stopwatch();
-  const sampling::SamplingSettings sampling{options.samples, options.maxDistance * box.diagonal()};
+  const sampling::SamplingSettings sampling{options.samples, reach};
   const sampling::SampleCounts counts = sampling::sampleNormalField(
       built, {&coarseUnit, &coarse.points.positions, &coarseNormals}, detail, sampling);
   report.rays = counts.rays;

@@ -16,6 +16,9 @@ namespace {
 
 using octree::Cell;
 
+constexpr std::size_t kLeavesPerChunk = 256;
+constexpr float kSetBack = 1e-4f;  // of the ray's reach
+
 // A ray origin on triangle t of m, and its share of the leaf's weight.
 struct Sample {
   std::uint32_t leaf = 0;  // position in the leaf list of the chunk
@@ -109,15 +112,25 @@ class LeafSampler {
     }
   }
 
-  Ray rayOf(const Sample& s, float direction, float reach) const {
+  Vec3f originOf(const Sample& s) const {
     const Triangle& tri = coarse_.unit->triangles[s.triangle];
     const auto& p = *coarse_.worldPositions;
+    const Eigen::Vector3f& w = s.barycentrics;
+    return w[0] * p[tri[0]] + w[1] * p[tri[1]] + w[2] * p[tri[2]];
+  }
+
+  // Starts a hair behind the origin, so that M passing exactly through the
+  // origin (m and M share vertices where they touch) is hit by both rays
+  // rather than by neither, whatever the caster does at t = 0.
+  Ray rayOf(const Sample& s, float direction, float reach) const {
+    const Triangle& tri = coarse_.unit->triangles[s.triangle];
     const auto& n = *coarse_.vertexNormals;
     const Eigen::Vector3f& w = s.barycentrics;
     Ray ray;
-    ray.origin = w[0] * p[tri[0]] + w[1] * p[tri[1]] + w[2] * p[tri[2]];
     ray.direction = direction * (w[0] * n[tri[0]] + w[1] * n[tri[1]] + w[2] * n[tri[2]]).normalized();
-    ray.tFar = reach;
+    const float setBack = kSetBack * reach;
+    ray.origin = originOf(s) - setBack * ray.direction;
+    ray.tFar = reach + setBack;
     return ray;
   }
 
@@ -169,8 +182,6 @@ void averageInternalNodes(Octree& octree) {
     node.weight = weight;
   }
 }
-
-constexpr std::size_t kLeavesPerChunk = 256;
 
 }  // namespace
 
@@ -245,7 +256,7 @@ SampleCounts sampleNormalField(octree::BuiltOctree& built, const CoarseFrames& c
         normal = sampler.normalAt(nearest);
         ++count.hits;
       } else {
-        normal = detail.closest->closest(rays[2 * k].origin).normal;
+        normal = detail.closest->closest(sampler.originOf(samples[k])).normal;
         ++count.fallbacks;
       }
       weighted[samples[k].leaf] += samples[k].weight * normal.cast<double>();

@@ -13,8 +13,8 @@
 namespace apo::test {
 
 struct BumpySphere {
-  float amplitude = 0.02f;
-  float width = 0.25f;  // s, in radians of the unit sphere (about)
+  float amplitude = 0.04f;
+  float width = 0.3f;  // s, in radians of the unit sphere (about)
   std::array<Vec3f, 4> centres = {Vec3f(0, 0, 1), Vec3f(1, 0, 0), Vec3f(0, -1, 0), Vec3f(-0.6f, 0.48f, -0.64f)};
 
   float radius(const Vec3f& d) const {
