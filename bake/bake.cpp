@@ -11,7 +11,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <mutex>
 #include <numeric>
+#include <stdexcept>
 
 namespace apo {
 namespace {
@@ -137,6 +139,30 @@ octree::DetailPrimitives detailForErrorMetric(const DetailSurface& surface, cons
   return detail;
 }
 
+// FLANN's k-d tree over M takes longer to build than Embree's BVH and is
+// needed only when both rays of a sample miss M (none do on a good m): it is
+// built on the first miss.
+class ClosestPointOnFirstMiss final : public ClosestPointFinder {
+ public:
+  explicit ClosestPointOnFirstMiss(const Scan& detail) : detail_(detail) {}
+
+  SurfacePoint closest(const Vec3f& query) const override {
+    std::call_once(built_, [this] {
+      auto made = makeFlannClosestPoint(detail_);
+      if (made) finder_ = std::move(made).value();
+      else failure_ = made.error().message;
+    });
+    if (!finder_) throw std::runtime_error("bake: closest-point search over M unavailable: " + failure_);
+    return finder_->closest(query);
+  }
+
+ private:
+  const Scan& detail_;
+  mutable std::once_flag built_;
+  mutable std::unique_ptr<ClosestPointFinder> finder_;
+  mutable std::string failure_;
+};
+
 void countNodes(const Octree& octree, BakeReport& report) {
   for (const OctreeNode& node : octree.nodes) {
     if (report.nodesPerDepth.size() <= node.depth) report.nodesPerDepth.resize(node.depth + 1, 0);
@@ -224,12 +250,11 @@ Result<Bake> bakeApo(const Scan& detail, const Scan& coarse, const BakeOptions& 
     for (const float r : radii) surface.pointAreas.push_back(r * r);
   }
   if (!caster) return caster.error();
-  auto closest = makeFlannClosestPoint(M);
-  if (!closest) return closest.error();
+  const ClosestPointOnFirstMiss closest(M);
   surface.caster = caster->get();
-  surface.closest = closest->get();
+  surface.closest = &closest;
   const double setupSeconds = setup.seconds();
-  spdlog::info("bake: Embree and FLANN over {} {} in {:.2f} s", M.isMesh() ? M.triangles.size() : M.points.size(),
+  spdlog::info("bake: Embree BVH over {} {} in {:.2f} s", M.isMesh() ? M.triangles.size() : M.points.size(),
                M.isMesh() ? "triangles" : "points", setupSeconds);
   auto bake = bakeWith(surface, coarse, options);
   if (!bake) return bake;

@@ -35,7 +35,9 @@ class EmbreeCaster final : public RayCaster {
     if (!device_) return internalError("Embree: cannot create a device (error {})", static_cast<int>(rtcGetDeviceError(nullptr)));
     rtcSetDeviceErrorFunction(device_, recordEmbreeError, &lastError_);
     scene_ = rtcNewScene(device_);
-    rtcSetSceneBuildQuality(scene_, RTC_BUILD_QUALITY_HIGH);
+    // Medium (binned SAH) builds 1M triangles several times faster than high
+    // (spatial splits) and traces our short rays about as fast.
+    rtcSetSceneBuildQuality(scene_, RTC_BUILD_QUALITY_MEDIUM);
     RTCGeometry geometry = rtcNewGeometry(device_, type);
     if (!geometry) return internalError("Embree: cannot create a geometry: {}", lastError_);
     if (!fill(geometry)) {
