@@ -1,0 +1,134 @@
+// `apo bake` and `apo lookup` through the binary: outputs, repeatability
+// across thread counts, and the bad-input cases with their exit codes.
+#include "bake/bake.h"
+#include "ingest/ingest.h"
+#include "tests/bake/bumpy_sphere.h"
+#include "tests/test_support.h"
+
+#include <fmt/format.h>
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+namespace apo {
+namespace {
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+
+test::CommandResult apo(const std::string& arguments) {
+  return test::runCommand(fmt::format("{} {}", test::apoExecutable().string(), arguments));
+}
+
+// M (a bumpy sphere) and m (an icosphere) as files.
+struct Inputs {
+  fs::path dir = test::freshTempDir();
+  fs::path detail = dir / "M.ply";
+  fs::path coarse = dir / "m.ply";
+
+  Inputs() {
+    EXPECT_TRUE(writePly(detail, test::BumpySphere().mesh(5)).ok());
+    EXPECT_TRUE(writePly(coarse, test::makeIcosphere(2)).ok());
+  }
+};
+
+std::string bakeArguments(const Inputs& in, const fs::path& out, const std::string& extra = "") {
+  return fmt::format("bake --detail '{}' --coarse '{}' -o '{}' --coarse-depth 3 --max-depth 7 {}", in.detail.string(),
+                     in.coarse.string(), out.string(), extra);
+}
+
+TEST(BakeCommand, WritesTheApoItsPngAndReport) {
+  const Inputs in;
+  const fs::path out = in.dir / "out";
+  const auto result = apo(bakeArguments(in, out));
+  ASSERT_EQ(result.exitCode, 0) << result.output;
+  auto texture = readApoFile(out / "scan.apo");
+  ASSERT_TRUE(texture.ok()) << texture.error().message;
+  std::ifstream json(out / "bake.json");
+  const auto report = nlohmann::json::parse(json);
+  EXPECT_EQ(report["format_version"], 1);
+  EXPECT_EQ(report["texture"]["width"], texture->width);
+  EXPECT_EQ(report["nodes"]["leaves"], texture->leafNodes);
+  EXPECT_EQ(report["detail"]["kind"], "mesh");
+  EXPECT_TRUE(fs::file_size(out / "texture.png") > 0);
+}
+
+TEST(BakeCommand, SameBytesWithOneOrTwoThreads) {
+  const Inputs in;
+  ASSERT_EQ(apo(bakeArguments(in, in.dir / "one", "--threads 1")).exitCode, 0);
+  ASSERT_EQ(apo(bakeArguments(in, in.dir / "two", "--threads 2")).exitCode, 0);
+  for (const char* file : {"scan.apo", "texture.png"})
+    EXPECT_EQ(test::runCommand(fmt::format("cmp '{}' '{}'", (in.dir / "one" / file).string(), (in.dir / "two" / file).string()))
+                  .exitCode,
+              0)
+        << file;
+}
+
+TEST(LookupCommand, GivesTheBakedNormalPerPointAndZeroOutside) {
+  const Inputs in;
+  const fs::path out = in.dir / "out";
+  ASSERT_EQ(apo(bakeArguments(in, out)).exitCode, 0);
+  // Points on m near the +z bump's flank, and one far outside the octree.
+  const test::BumpySphere shape;
+  std::vector<Vec3f> points = {Vec3f(0.3f, 0.0f, 0.93f).normalized() * 0.99f, Vec3f(0.0f, 0.25f, -0.95f).normalized() * 0.99f};
+  test::writeBytes(in.dir / "points.xyz", fmt::format("{} {} {}\n{} {} {}\n5 5 5\n", points[0].x(), points[0].y(),
+                                                     points[0].z(), points[1].x(), points[1].y(), points[1].z()));
+  const auto result = apo(fmt::format("lookup '{}' '{}' -o '{}'", (out / "scan.apo").string(),
+                                      (in.dir / "points.xyz").string(), (in.dir / "normals.xyz").string()));
+  ASSERT_EQ(result.exitCode, 0) << result.output;
+  std::ifstream normals(in.dir / "normals.xyz");
+  for (const Vec3f& p : points) {
+    Vec3f n;
+    normals >> n.x() >> n.y() >> n.z();
+    EXPECT_NEAR(n.norm(), 1.0f, 1e-4f);
+    EXPECT_LT(std::acos(std::min(1.0f, n.dot(shape.normal(p)))), 0.05f) << "at " << p.transpose();  // < 3 degrees
+  }
+  Vec3f outside;
+  normals >> outside.x() >> outside.y() >> outside.z();
+  EXPECT_EQ(outside, Vec3f::Zero());
+}
+
+TEST(BakeCommand, BadInputsGiveClearErrors) {
+  const Inputs in;
+  test::writeBytes(in.dir / "cloud.xyz", "0 0 0\n1 0 0\n0 1 0\n");
+  auto result = apo(fmt::format("bake --detail '{}' --coarse '{}' -o '{}'", in.detail.string(),
+                                (in.dir / "cloud.xyz").string(), (in.dir / "o1").string()));
+  EXPECT_EQ(result.exitCode, 2);
+  EXPECT_THAT(result.output, HasSubstr("must be a triangle mesh"));
+  result = apo(fmt::format("bake --detail '{}' --coarse '{}' -o '{}'", (in.dir / "cloud.xyz").string(),
+                           in.coarse.string(), (in.dir / "o2").string()));
+  EXPECT_EQ(result.exitCode, 2);
+  EXPECT_THAT(result.output, HasSubstr("normals"));
+  result = apo(bakeArguments(in, in.dir / "o3", "--max-depth 2"));
+  EXPECT_EQ(result.exitCode, 1);
+  EXPECT_THAT(result.output, HasSubstr("--max-depth"));
+  result = apo(bakeArguments(in, in.dir / "o4", "--normal-encoding rgb"));
+  EXPECT_EQ(result.exitCode, 1);
+}
+
+TEST(LookupCommand, CorruptApoIsBadInput) {
+  const Inputs in;
+  const fs::path out = in.dir / "out";
+  ASSERT_EQ(apo(bakeArguments(in, out)).exitCode, 0);
+  std::string bytes;
+  {
+    std::ifstream file(out / "scan.apo", std::ios::binary);
+    std::stringstream buffer;
+    buffer << file.rdbuf();
+    bytes = buffer.str();
+  }
+  bytes[bytes.size() / 2] = static_cast<char>(bytes[bytes.size() / 2] ^ 0x5A);
+  test::writeBytes(in.dir / "corrupt.apo", bytes);
+  test::writeBytes(in.dir / "points.xyz", "0 0 1\n");
+  const auto result = apo(fmt::format("lookup '{}' '{}' -o '{}'", (in.dir / "corrupt.apo").string(),
+                                      (in.dir / "points.xyz").string(), (in.dir / "n.xyz").string()));
+  EXPECT_EQ(result.exitCode, 2);
+  EXPECT_THAT(result.output, HasSubstr("corrupt.apo"));
+  EXPECT_FALSE(fs::exists(in.dir / "n.xyz"));
+}
+
+}  // namespace
+}  // namespace apo
