@@ -155,6 +155,28 @@ TEST_F(BumpySphereBake, OnTheBumpsTheApoBeatsMsOwnNormals) {
   EXPECT_LT(apoError, bareError / 3.0) << "APO " << apoError << " deg, bare m " << bareError << " deg";
 }
 
+TEST_F(BumpySphereBake, TextureLookupMatchesTheOctreeForAMillionPointsNearM) {
+  // The walk over the encoded texture (what the shader does) against the walk
+  // over the in-memory octree: same node depth and same normal, up to the
+  // 24-bit quantisation, for points on m and up to a cell's width off it.
+  std::mt19937 rng(17);
+  std::normal_distribution<float> offset(0.0f, 0.01f);
+  const auto onM = pointsOnMesh(*coarse_, 1000000, 9);
+  std::size_t mismatches = 0, outside = 0;
+  for (const Vec3f& p : onM) {
+    const Vec3f unit = bake_->texture.transform.toUnit(p + Vec3f(offset(rng), offset(rng), offset(rng)));
+    const Lookup texture = lookupTexture(bake_->texture, unit);
+    const Lookup tree = lookupOctree(bake_->octree, unit);
+    if (!texture.found) {
+      ++outside;  // an empty grid cell; the tree walk stops above the grid there
+      continue;
+    }
+    if (texture.depth != tree.depth || degreesBetween(texture.normal, tree.normal) > 0.05) ++mismatches;
+  }
+  EXPECT_EQ(mismatches, 0u);
+  EXPECT_LT(outside, onM.size() / 100);
+}
+
 TEST_F(BumpySphereBake, ReportCountsWhatWasBuilt) {
   const BakeReport& r = bake_->report;
   EXPECT_EQ(r.detailKind, "mesh");
