@@ -107,30 +107,38 @@ std::vector<Vec3f> projectOntoCoarse(const std::vector<Vec3f>& centres, const st
   return projected;
 }
 
-// M's primitives for the error metric, in unit-cube coordinates: each is a
-// point (its projection onto m) with its unit normal and its weight, its area
-// over the mean area (for points, the squared disc radius).
+// M for the error metric (octree_build.h): in unit-cube coordinates, each
+// triangle shifted and each point moved to where it projects onto m.
 octree::DetailPrimitives detailForErrorMetric(const DetailSurface& surface, const RayCaster& coarseCaster, float reach,
                                               const UnitCubeTransform& transform) {
   const Scan& M = *surface.detail;
-  std::vector<Vec3f> centres;
   octree::DetailPrimitives detail;
   if (M.isMesh()) {
+    std::vector<Vec3f> centres, normals;
     centres.reserve(M.triangles.size());
+    double totalArea = 0.0;
     for (const Triangle& t : M.triangles) {
       const Vec3f &a = M.points.positions[t[0]], &b = M.points.positions[t[1]], &c = M.points.positions[t[2]];
       const Vec3f areaNormal = 0.5f * (b - a).cross(c - a);
       const float area = areaNormal.norm();
+      totalArea += area;
       centres.push_back((a + b + c) / 3.0f);
-      detail.normals.push_back(area > 0.0f ? Vec3f(areaNormal / area) : Vec3f(Vec3f::Zero()));
-      detail.weights.push_back(area);
+      normals.push_back(area > 0.0f ? Vec3f(areaNormal / area) : Vec3f(Vec3f::Zero()));
     }
-  } else {
-    centres = M.points.positions;
-    detail.normals = M.points.normals;
-    detail.weights = surface.pointAreas.empty() ? std::vector<float>(M.points.size(), 1.0f) : surface.pointAreas;
+    const std::vector<Vec3f> projected = projectOntoCoarse(centres, normals, coarseCaster, reach);
+    detail.triangles = M.triangles;
+    for (const Vec3f& p : M.points.positions) detail.positions.push_back(transform.toUnit(p));
+    detail.shifts.reserve(M.triangles.size());
+    for (std::size_t i = 0; i < M.triangles.size(); ++i)
+      detail.shifts.push_back(transform.toUnit(projected[i]) - transform.toUnit(centres[i]));
+    detail.cornerNormals = M.points.normals;
+    const double meanUnitArea = totalArea / static_cast<double>(M.triangles.size()) * transform.scale * transform.scale;
+    detail.areaScale = meanUnitArea > 0.0 ? 1.0 / meanUnitArea : 1.0;
+    return detail;
   }
-  for (const Vec3f& p : projectOntoCoarse(centres, detail.normals, coarseCaster, reach))
+  detail.normals = M.points.normals;
+  detail.weights = surface.pointAreas.empty() ? std::vector<float>(M.points.size(), 1.0f) : surface.pointAreas;
+  for (const Vec3f& p : projectOntoCoarse(M.points.positions, detail.normals, coarseCaster, reach))
     detail.positions.push_back(transform.toUnit(p));
   const double total = std::accumulate(detail.weights.begin(), detail.weights.end(), 0.0);
   const double mean = total / static_cast<double>(std::max<std::size_t>(1, detail.weights.size()));

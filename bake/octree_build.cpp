@@ -63,15 +63,73 @@ bool coarseOverlaps(const CoarseMesh& m, std::uint32_t t, const Cell& cell) {
 
 Bounds detailBounds(const DetailPrimitives& d, std::uint32_t i) {
   if (d.triangles.empty()) return {d.positions[i], d.positions[i]};
-  const Triangle& tri = d.triangles[i];
-  return triangleBounds(d.positions[tri[0]], d.positions[tri[1]], d.positions[tri[2]]);
+  const auto c = d.corners(i);
+  return triangleBounds(c[0], c[1], c[2]);
 }
 
 bool detailOverlaps(const DetailPrimitives& d, std::uint32_t i, const Cell& cell) {
   if (d.triangles.empty())
     return (d.positions[i].array() >= cell.lower().array()).all() && (d.positions[i].array() <= cell.upper().array()).all();
-  const Triangle& tri = d.triangles[i];
-  return triangleOverlapsBox(d.positions[tri[0]], d.positions[tri[1]], d.positions[tri[2]], cell);
+  const auto c = d.corners(i);
+  return triangleOverlapsBox(c[0], c[1], c[2], cell);
+}
+
+bool boundsInsideCell(const Bounds& b, const Cell& cell) {
+  return (b.lo.array() >= cell.lower().array()).all() && (b.hi.array() <= cell.upper().array()).all();
+}
+
+// Running sums for the L2,1 integral: over pieces of area a with mean normal
+// mu and internal variance v, sum a |mu - n|^2 + a v expands into these.
+struct VariationSums {
+  double area = 0.0, areaMeanSquared = 0.0, areaVariance = 0.0;
+  Eigen::Vector3d areaMean = Eigen::Vector3d::Zero();
+
+  void add(double a, const Eigen::Vector3d& mean, double variance) {
+    area += a;
+    areaMean += a * mean;
+    areaMeanSquared += a * mean.squaredNorm();
+    areaVariance += a * variance;
+  }
+
+  // A linearly interpolated field over a triangle: its mean is the corners'
+  // mean and its variance a twelfth of the corners' squared deviations.
+  void addTriangle(double a, const Vec3f& n0, const Vec3f& n1, const Vec3f& n2) {
+    const Eigen::Vector3d m0 = n0.cast<double>(), m1 = n1.cast<double>(), m2 = n2.cast<double>();
+    const Eigen::Vector3d mean = (m0 + m1 + m2) / 3.0;
+    add(a, mean, ((m0 - mean).squaredNorm() + (m1 - mean).squaredNorm() + (m2 - mean).squaredNorm()) / 12.0);
+  }
+
+  double l21() const {
+    const double norm = areaMean.norm();
+    const double alongMean = norm > 0.0 ? norm : 0.0;  // n . sum(a mu) with n the unit mean
+    const double unitArea = norm > 0.0 ? area : 0.0;   // |n|^2 sum(a)
+    return std::max(0.0, areaMeanSquared - 2.0 * alongMean + unitArea + areaVariance);
+  }
+};
+
+double triangleArea(const Vec3f& a, const Vec3f& b, const Vec3f& c) {
+  return 0.5 * (b - a).cast<double>().cross((c - a).cast<double>()).norm();
+}
+
+// The part of triangle t of M inside the cell, added piece by piece with its
+// interpolated normals.
+void addTriangleInCell(const DetailPrimitives& d, std::uint32_t t, const Cell& cell, VariationSums& sums) {
+  const auto c = d.corners(t);
+  const Triangle& tri = d.triangles[t];
+  const Vec3f &n0 = d.cornerNormals[tri[0]], &n1 = d.cornerNormals[tri[1]], &n2 = d.cornerNormals[tri[2]];
+  if (boundsInsideCell(triangleBounds(c[0], c[1], c[2]), cell)) {
+    sums.addTriangle(d.areaScale * triangleArea(c[0], c[1], c[2]), n0, n1, n2);
+    return;
+  }
+  const std::vector<Vec3f> piece = clipTriangleToCell(c[0], c[1], c[2], cell);
+  if (piece.size() < 3) return;
+  std::vector<Vec3f> normals;
+  for (const Vec3f& p : piece) {
+    const Eigen::Vector3f w = barycentricsOf(p, c[0], c[1], c[2]);
+    normals.push_back(w[0] * n0 + w[1] * n1 + w[2] * n2);
+  }
+  for (std::size_t k = 1; k + 1 < piece.size(); ++k)
+    sums.addTriangle(d.areaScale * triangleArea(piece[0], piece[k], piece[k + 1]), normals[0], normals[k], normals[k + 1]);
 }
 
 // Children of `cell` whose closed box meets the bounds: on each axis the
@@ -208,7 +266,7 @@ class SubtreeBuilder {
   void refine(Subtree& tree, std::uint32_t node, const Cell& cell, std::vector<std::uint32_t> triangles,
               std::vector<std::uint32_t> primitives) const {
     const bool split = cell.depth < settings_.maxDepth &&
-                       (cell.depth < settings_.coarseDepth || normalVariation(detail_, primitives) > settings_.error);
+                       (cell.depth < settings_.coarseDepth || normalVariation(detail_, primitives, cell) > settings_.error);
     std::array<std::vector<std::uint32_t>, 8> childTriangles;
     std::uint8_t mask = 0;
     if (split) {
@@ -371,14 +429,26 @@ double polygonArea(const std::vector<Vec3f>& polygon) {
   return 0.5 * sum.norm();
 }
 
-double normalVariation(const DetailPrimitives& detail, const std::vector<std::uint32_t>& primitives) {
-  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  for (const std::uint32_t i : primitives) mean += detail.weights[i] * detail.normals[i].cast<double>();
-  if (mean.squaredNorm() > 0.0) mean.normalize();
-  double variation = 0.0;
-  for (const std::uint32_t i : primitives)
-    variation += detail.weights[i] * (detail.normals[i].cast<double>() - mean).squaredNorm();
-  return variation;
+Eigen::Vector3f barycentricsOf(const Vec3f& p, const Vec3f& a, const Vec3f& b, const Vec3f& c) {
+  const Vec3f v0 = b - a, v1 = c - a, v2 = p - a;
+  const double d00 = v0.dot(v0), d01 = v0.dot(v1), d11 = v1.dot(v1), d20 = v2.dot(v0), d21 = v2.dot(v1);
+  const double denominator = d00 * d11 - d01 * d01;
+  if (!(denominator > 0.0)) return {1.0f, 0.0f, 0.0f};
+  const double v = (d11 * d20 - d01 * d21) / denominator, w = (d00 * d21 - d01 * d20) / denominator;
+  Eigen::Vector3f weights(static_cast<float>(1.0 - v - w), static_cast<float>(v), static_cast<float>(w));
+  weights = weights.cwiseMax(0.0f);  // the point is on the triangle up to rounding
+  return weights / weights.sum();
+}
+
+double normalVariation(const DetailPrimitives& detail, const std::vector<std::uint32_t>& primitives, const Cell& cell) {
+  VariationSums sums;
+  for (const std::uint32_t i : primitives) {
+    if (detail.triangles.empty())
+      sums.add(detail.weights[i], detail.normals[i].cast<double>(), 0.0);
+    else
+      addTriangleInCell(detail, i, cell, sums);
+  }
+  return sums.l21();
 }
 
 BuiltOctree buildOctree(const CoarseMesh& coarse, const DetailPrimitives& detail, const BuildSettings& settings) {

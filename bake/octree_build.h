@@ -4,6 +4,7 @@
 
 #include "bake/bake.h"
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -29,17 +30,33 @@ bool triangleOverlapsBox(const Vec3f& a, const Vec3f& b, const Vec3f& c, const C
 std::vector<Vec3f> clipTriangleToCell(const Vec3f& a, const Vec3f& b, const Vec3f& c, const Cell& cell);
 double polygonArea(const std::vector<Vec3f>& polygon);
 
-// M as the L2,1 metric and the overlap tests see it, in unit-cube
-// coordinates: triangles (or points when `triangles` is empty), each with its
-// unit normal and its weight, its area over M's mean primitive area.
+// M as the L2,1 metric sees it, in unit-cube coordinates and moved onto m.
+// Triangles (when `triangles` is not empty) carry the interpolated normal
+// field of M: corner normals per vertex, each triangle shifted by `shifts`
+// (its centre's projection onto m); the metric integrates over the part of
+// each triangle inside a cell, in units of M's mean triangle area
+// (`areaScale` = 1 / that area). Points carry one normal and a weight each
+// (their area over the mean area) and sit where they project onto m.
 struct DetailPrimitives {
   std::vector<Vec3f> positions;
   std::vector<Triangle> triangles;
-  std::vector<Vec3f> normals;
-  std::vector<float> weights;
+  std::vector<Vec3f> shifts;         // per triangle
+  std::vector<Vec3f> cornerNormals;  // per position, for triangles
+  double areaScale = 1.0;            // triangles
+  std::vector<Vec3f> normals;        // per point
+  std::vector<float> weights;        // per point
 
-  std::size_t size() const { return normals.size(); }
+  std::size_t size() const { return triangles.empty() ? positions.size() : triangles.size(); }
+  std::array<Vec3f, 3> corners(std::uint32_t t) const {
+    const Triangle& tri = triangles[t];
+    const Vec3f shift = shifts.empty() ? Vec3f(Vec3f::Zero()) : shifts[t];
+    return {positions[tri[0]] + shift, positions[tri[1]] + shift, positions[tri[2]] + shift};
+  }
 };
+
+// Barycentric weights of p (on or near triangle abc) in abc, clamped to the
+// triangle.
+Eigen::Vector3f barycentricsOf(const Vec3f& p, const Vec3f& a, const Vec3f& b, const Vec3f& c);
 
 // m in unit-cube coordinates.
 struct CoarseMesh {
@@ -61,9 +78,11 @@ struct BuiltOctree {
   std::vector<std::uint32_t> leafTriangles;
 };
 
-// L2,1 of a set of primitives: sum of w_i |n_i - n_mean|^2, n_mean the unit
-// weighted mean normal (paper 3.1 with Cohen-Steiner's area weights).
-double normalVariation(const DetailPrimitives& detail, const std::vector<std::uint32_t>& primitives);
+// L2,1 of the primitives in a cell (paper 3.1, Cohen-Steiner's integral):
+// the integral over M inside the cell of |n(x) - n_C|^2, n(x) M's
+// interpolated normal and n_C the unit mean normal, over M's mean triangle
+// area; for points, the sum of w_i |n_i - n_C|^2.
+double normalVariation(const DetailPrimitives& detail, const std::vector<std::uint32_t>& primitives, const Cell& cell);
 
 // Complete to settings.coarseDepth around m, then refined while the L2,1 of
 // a leaf exceeds settings.error, down to settings.maxDepth; only children

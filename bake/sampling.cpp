@@ -27,16 +27,7 @@ struct Sample {
   double weight = 0.0;
 };
 
-Eigen::Vector3f barycentricsOf(const Vec3f& p, const Vec3f& a, const Vec3f& b, const Vec3f& c) {
-  const Vec3f v0 = b - a, v1 = c - a, v2 = p - a;
-  const double d00 = v0.dot(v0), d01 = v0.dot(v1), d11 = v1.dot(v1), d20 = v2.dot(v0), d21 = v2.dot(v1);
-  const double denominator = d00 * d11 - d01 * d01;
-  if (!(denominator > 0.0)) return {1.0f, 0.0f, 0.0f};
-  const double v = (d11 * d20 - d01 * d21) / denominator, w = (d00 * d21 - d01 * d20) / denominator;
-  Eigen::Vector3f weights(static_cast<float>(1.0 - v - w), static_cast<float>(v), static_cast<float>(w));
-  weights = weights.cwiseMax(0.0f);  // the point is on t up to rounding
-  return weights / weights.sum();
-}
+using octree::barycentricsOf;
 
 // Low-discrepancy points of the unit square (Roberts' R2 sequence): sample j
 // of k lands in its own part of the square, the same for every run.

@@ -90,10 +90,40 @@ TEST(NormalVariation, TwoNormalsAtAnAngle) {
   detail.weights = {1.0f, 1.0f};
   // The mean is the bisector; each normal is angle / 2 from it.
   const double each = 2.0 - 2.0 * std::cos(angle / 2.0);
-  EXPECT_NEAR(normalVariation(detail, {0, 1}), 2.0 * each, 1e-6);
-  EXPECT_EQ(normalVariation(detail, {0}), 0.0);
+  const Cell cell;
+  EXPECT_NEAR(normalVariation(detail, {0, 1}, cell), 2.0 * each, 1e-6);
+  EXPECT_NEAR(normalVariation(detail, {0}, cell), 0.0, 1e-12);
   detail.weights = {3.0f, 3.0f};
-  EXPECT_NEAR(normalVariation(detail, {0, 1}), 6.0 * each, 1e-5);
+  EXPECT_NEAR(normalVariation(detail, {0, 1}, cell), 6.0 * each, 1e-5);
+}
+
+TEST(NormalVariation, IntegratesTheInterpolatedFieldOverTheTrianglePartInTheCell) {
+  // One right triangle of legs 1 in z = 0.5, corner normals (1,0,0) at the
+  // right angle and (0,0,1) at the other two: n(x, y) = (1 - u - v, 0, u + v)
+  // in barycentrics. Ground truth by dense midpoint integration.
+  DetailPrimitives detail;
+  detail.positions = {{0.0f, 0.0f, 0.5f}, {1.0f, 0.0f, 0.5f}, {0.0f, 1.0f, 0.5f}};
+  detail.triangles = {{0, 1, 2}};
+  detail.cornerNormals = {{1, 0, 0}, {0, 0, 1}, {0, 0, 1}};
+  detail.areaScale = 2.0;  // weights in units of the triangle's own area (0.5)
+  for (const Cell& cell : {Cell{Vec3f(0.5f, 0.5f, 0.5f), 1.0f, 0}, Cell{Vec3f(0.25f, 0.25f, 0.5f), 0.5f, 1}}) {
+    const int n = 800;
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    std::vector<std::pair<Eigen::Vector3d, double>> pieces;
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j) {
+        const double x = (i + 0.5) / n, y = (j + 0.5) / n;
+        if (x + y > 1.0 || (Vec3f(float(x), float(y), 0.5f) - cell.centre).cwiseAbs().maxCoeff() > 0.5f * cell.width) continue;
+        const Eigen::Vector3d normal(1.0 - x - y, 0.0, x + y);
+        pieces.emplace_back(normal, 1.0 / (n * n));
+        sum += normal / (n * n);
+      }
+    const Eigen::Vector3d mean = sum.normalized();
+    double expected = 0.0;
+    for (const auto& [normal, area] : pieces) expected += area * (normal - mean).squaredNorm();
+    // The midpoint grid misplaces area along the hypotenuse by about 1 / n.
+    EXPECT_NEAR(normalVariation(detail, {0}, cell), 2.0 * expected, 1e-2 * expected) << "cell width " << cell.width;
+  }
 }
 
 // m: an icosphere in the unit cube; M: the same sphere's triangles, their
@@ -112,16 +142,16 @@ SphereCase bumpySphereCase() {
   const auto toUnit = [](const Vec3f& p) { return Vec3f(0.5f + 0.4f * p.x(), 0.5f + 0.4f * p.y(), 0.5f + 0.4f * p.z()); };
   for (const Vec3f& p : sphere.points.positions) c.coarse.positions.push_back(toUnit(p));
   c.coarse.triangles = sphere.triangles;
-  for (const Vec3f& p : dense.points.positions) c.detail.positions.push_back(toUnit(p));
-  c.detail.triangles = dense.triangles;
-  for (const Triangle& t : dense.triangles) {
-    const Vec3f centroid = (dense.points.positions[t[0]] + dense.points.positions[t[1]] + dense.points.positions[t[2]]) / 3.0f;
-    Vec3f normal = centroid.normalized();
+  for (const Vec3f& p : dense.points.positions) {
+    c.detail.positions.push_back(toUnit(p));
+    Vec3f normal = p.normalized();
     // In the bump, the normal wobbles with the longitude: high variation.
-    if (inBump(centroid)) normal = (normal + 0.5f * Vec3f(std::sin(40.0f * centroid.x()), std::cos(40.0f * centroid.y()), 0.0f)).normalized();
-    c.detail.normals.push_back(normal);
-    c.detail.weights.push_back(1.0f);
+    if (inBump(p)) normal = (normal + 0.5f * Vec3f(std::sin(40.0f * p.x()), std::cos(40.0f * p.y()), 0.0f)).normalized();
+    c.detail.cornerNormals.push_back(normal);
   }
+  c.detail.triangles = dense.triangles;
+  const double meanArea = 4.0 * std::numbers::pi * 0.4 * 0.4 / static_cast<double>(dense.triangles.size());
+  c.detail.areaScale = 1.0 / meanArea;
   return c;
 }
 
@@ -181,11 +211,10 @@ TEST(BuildOctree, LeavesHoldExactlyTheTrianglesOfMThatOverlapThem) {
 
 TEST(BuildOctree, RefinesWhereTheNormalsVaryAndOnlyThere) {
   // Outside the bump M's normals are radial: a depth-6 cell (1/64 of the
-  // cube, 0.04 rad of this sphere) holds a few of M's triangles (each
-  // counted wherever it overlaps) within 0.02 rad of their mean, L2,1 ~
-  // 5 x 0.02^2 < 0.05: no leaf there reaches depth 7. In the bump the
-  // normals wobble by ~0.5 over less than a depth-7 cell: leaves at the
-  // maximum depth, 7.
+  // cube, 0.04 rad of this sphere) holds about 5 triangles' worth of M
+  // within 0.02 rad of their mean, L2,1 ~ 5 x 0.02^2 < 0.05: no leaf there
+  // reaches depth 7. In the bump the normals wobble by ~0.5 over less than a
+  // depth-7 cell: leaves at the maximum depth, 7.
   const SphereCase c = bumpySphereCase();
   const BuiltOctree built = buildOctree(c.coarse, c.detail, {3, 7, 0.05});
   int inBumpLeaves = 0, inBumpDeepest = 0, outsideLeaves = 0, outsideDeepest = 0;
@@ -203,7 +232,8 @@ TEST(BuildOctree, RefinesWhereTheNormalsVaryAndOnlyThere) {
   }
   ASSERT_GT(inBumpLeaves, 100);
   ASSERT_GT(outsideLeaves, 100);
-  EXPECT_GT(inBumpDeepest, 0.95 * inBumpLeaves);
+  // Cells the sphere only grazes hold too little of M to split.
+  EXPECT_GT(inBumpDeepest, 0.8 * inBumpLeaves);
   EXPECT_EQ(outsideDeepest, 0);
 }
 
