@@ -1,0 +1,69 @@
+// render: draws m with the APO (paper section 5) next to M as ground truth,
+// headless under OSMesa (Mesa llvmpipe), and measures how close they are.
+// docs/render.md describes the passes and render.json.
+#pragma once
+
+#include "bake/bake.h"
+#include "core/error.h"
+#include "core/geometry.h"
+
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace apo {
+
+// ---- Images and buffers read back from a pass -----------------------------
+
+// 8-bit RGBA, row-major, row 0 at the top.
+struct Image {
+  int width = 0, height = 0;
+  std::vector<std::uint8_t> rgba;  // width * height * 4
+};
+
+// Per pixel: world-space unit normal (x, y, z) and coverage (1 where the
+// surface covers the pixel, 0 elsewhere), row-major, row 0 at the top.
+struct NormalBuffer {
+  int width = 0, height = 0;
+  std::vector<float> data;  // width * height * 4
+
+  bool covered(std::size_t pixel) const { return data[4 * pixel + 3] > 0.5f; }
+  Vec3f normal(std::size_t pixel) const { return {data[4 * pixel], data[4 * pixel + 1], data[4 * pixel + 2]}; }
+};
+
+// ---- Metrics (pure functions, no GL) ---------------------------------------
+
+struct AngularStats {
+  std::uint64_t pixels = 0;  // covered by both buffers
+  double mean = 0.0, median = 0.0, p95 = 0.0, max = 0.0;  // degrees
+};
+
+// Angle in degrees between the two buffers' normals on every pixel covered by
+// both; `perPixel` (optional) receives it per pixel, NaN where not compared.
+AngularStats angularErrors(const NormalBuffer& test, const NormalBuffer& reference, std::vector<float>* perPixel = nullptr);
+// The same statistics over a list of angles (for the figures over all views).
+AngularStats statsOfAngles(std::vector<float> degrees);
+
+// Over the object, not the empty background both images share: MAE and
+// PSNR over the RGB of the pixels covered by either image, SSIM averaged
+// over the windows that hold such a pixel.
+struct ImageMetrics {
+  std::uint64_t pixels = 0;         // covered by either
+  double meanAbsoluteError = 0.0;   // out of 255
+  double psnr = 0.0;                // dB; +infinity for identical images
+  double ssim = 0.0;                // of the luminance (Wang et al. 2004, 8x8 windows, stride 4)
+  double silhouetteMismatch = 0.0;  // pixels covered by exactly one / pixels covered by either
+};
+
+ImageMetrics compareImages(const Image& test, const Image& reference, const NormalBuffer& testCoverage,
+                           const NormalBuffer& referenceCoverage);
+
+// Angular error as colours on a fixed scale (0 to `maxDegrees`, clamped),
+// uncompared pixels transparent black.
+Image errorHeatMap(const std::vector<float>& degrees, int width, int height, float maxDegrees);
+
+Status writeImagePng(const std::filesystem::path& path, const Image& image);
+
+}  // namespace apo
