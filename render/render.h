@@ -66,4 +66,48 @@ Image errorHeatMap(const std::vector<float>& degrees, int width, int height, flo
 
 Status writeImagePng(const std::filesystem::path& path, const Image& image);
 
+// ---- Cameras and passes (OSMesa) --------------------------------------------
+
+struct Camera {
+  Vec3f eye = Vec3f::Zero(), target = Vec3f::Zero(), up = Vec3f::UnitY();
+  float fovYDegrees = 30.0f;
+  float nearPlane = 0.1f, farPlane = 10.0f;
+};
+
+// The views, first `count` of: the 6 axis directions, then the 8 cube
+// diagonals; each looks at the centre of `box` from the distance at which its
+// bounding sphere fills the square image.
+std::vector<Camera> standardViews(const Aabb& box, int count);
+
+struct RenderOptions {
+  int size = 1024;          // square images, pixels per side
+  int views = 14;
+  bool mipmapping = true;   // paper 5.2: stop where a cell is smaller than a pixel
+};
+
+struct PassImages {
+  Image shaded;
+  NormalBuffer normals;
+};
+
+struct ViewImages {
+  Camera camera;
+  PassImages reference;  // M; empty when no M was given
+  PassImages baseline;   // m with its own vertex normals
+  PassImages apo;        // m with the APO
+};
+
+// Renders every view's passes. M, when given, must be a triangle mesh (its
+// vertex normals are used, computed if absent).
+Result<std::vector<ViewImages>> renderViews(const Scan* detail, const Scan& coarse, const ApoTexture& apo,
+                                            const RenderOptions& options);
+
+// The shader's walk against bake/'s lookupTexture: for every pixel m covers,
+// the node the GLSL walk stopped at (read back) and the node the CPU walk
+// reaches from the same unit-cube point (also read back, exact floats).
+struct WalkAgreement {
+  std::uint64_t pixels = 0, mismatches = 0;
+};
+Result<WalkAgreement> compareWalkWithCpu(const Scan& coarse, const ApoTexture& apo, int size, int views);
+
 }  // namespace apo

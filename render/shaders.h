@@ -1,0 +1,150 @@
+// GLSL sources of the passes (internal to render/). One vertex shader for
+// every mesh; fragment shaders for M or m with their own normals, and for m
+// with the APO, whose walk repeats bake/'s lookupTexture operation for
+// operation so that both land on the same node (see the exactness pass).
+#pragma once
+
+#include <string_view>
+
+namespace apo::shaders {
+
+inline constexpr std::string_view kMeshVertex = R"(#version 450 core
+layout(location = 0) in vec3 position;
+layout(location = 1) in vec3 normal;
+uniform mat4 viewProjection;
+out vec3 worldPosition;
+out vec3 worldNormal;
+void main() {
+  worldPosition = position;
+  worldNormal = normal;
+  gl_Position = viewProjection * vec4(position, 1.0);
+}
+)";
+
+// Blinn-Phong under a headlight (the light sits at the eye), grey albedo.
+inline constexpr std::string_view kShading = R"(
+uniform vec3 eye;
+vec4 shade(vec3 n, vec3 p) {
+  vec3 toEye = normalize(eye - p);
+  float diffuse = max(dot(n, toEye), 0.0);
+  float specular = pow(diffuse, 32.0);  // the half vector of a headlight is the view direction
+  vec3 colour = vec3(0.08) + 0.72 * diffuse * vec3(0.85, 0.82, 0.78) + 0.25 * specular * vec3(1.0);
+  return vec4(clamp(colour, 0.0, 1.0), 1.0);
+}
+)";
+
+// M (reference) or m (baseline) with their interpolated vertex normals.
+inline constexpr std::string_view kVertexNormalFragment = R"(
+in vec3 worldPosition;
+in vec3 worldNormal;
+layout(location = 0) out vec4 shaded;
+layout(location = 1) out vec4 normalAndCoverage;
+void main() {
+  vec3 n = normalize(worldNormal);
+  shaded = shade(n, worldPosition);
+  normalAndCoverage = vec4(n, 1.0);
+}
+)";
+
+// The APO walk (paper 5.1 with the completion grid of section 6).
+inline constexpr std::string_view kApoWalk = R"(
+uniform usampler2D apoTexture;
+uniform uint widthMask;      // texture width - 1 (a power of two)
+uniform int widthShift;      // log2(texture width)
+uniform int completeDepth;
+uniform uint normalEncoding; // 0: xyz8, 1: oct24
+uniform float unitScale;     // unit = world * unitScale + unitOffset
+uniform vec3 unitOffset;
+uniform bool mipmapping;
+uniform float pixelsPerWorldUnitAtOne;  // screen pixels covered by one world unit at distance 1
+
+uvec4 texel(uint index) { return texelFetch(apoTexture, ivec2(int(index & widthMask), int(index >> widthShift)), 0); }
+
+vec2 signNotZero(vec2 v) { return vec2(v.x >= 0.0 ? 1.0 : -1.0, v.y >= 0.0 ? 1.0 : -1.0); }
+
+vec3 decodeNormal(uvec3 rgb) {
+  if (normalEncoding == 0u) return normalize(vec3(rgb) / 255.0 * 2.0 - 1.0);
+  uint bits = rgb.r | (rgb.g << 8) | (rgb.b << 16);
+  vec2 uv = vec2(float(bits & 0xFFFu), float(bits >> 12)) / 4095.0 * 2.0 - 1.0;
+  vec3 p = vec3(uv, 1.0 - abs(uv.x) - abs(uv.y));
+  if (p.z < 0.0) p.xy = (1.0 - abs(p.yx)) * signNotZero(p.xy);
+  return normalize(p);
+}
+
+struct Walk {
+  bool found;
+  uint node;         // first texel of the node the walk stopped at
+  uint normalTexel;  // the texel holding its normal
+  int depth;
+};
+
+// The grid cell of P, then down the tree: child from the sign of P minus
+// the cell centre (lower side on ties), offset from the masks. Stops at a
+// leaf, at a missing child, at `maxDepth`, or (mip-mapping) where the cell's
+// diagonal covers less than a pixel at `distance`.
+Walk walk(vec3 P, int maxDepth, float distance) {
+  Walk w = Walk(false, 0u, 0u, 0);
+  if (any(lessThan(P, vec3(0.0))) || any(greaterThan(P, vec3(1.0)))) return w;
+  uint n = 1u << uint(completeDepth);
+  float fn = float(n);
+  ivec3 cell = clamp(ivec3(ceil(P * fn)) - 1, ivec3(0), ivec3(int(n) - 1));
+  uvec4 g = texel((uint(cell.x) * n + uint(cell.y)) * n + uint(cell.z));
+  uint node = g.r | (g.g << 8) | (g.b << 16) | (g.a << 24);
+  if (node == 0xFFFFFFFFu) return w;
+  float width = 1.0 / fn;
+  vec3 centre = (vec3(cell) + 0.5) * width;
+  int depth = completeDepth;
+  float pixelsPerUnitCell = sqrt(3.0) / unitScale * pixelsPerWorldUnitAtOne / distance;
+  for (int step = 0; step < 40; ++step) {
+    uvec4 first = texel(node);
+    uint childMask = first.a;
+    if (childMask == 0u) return Walk(true, node, node, depth);
+    if (depth >= maxDepth || (mipmapping && width * pixelsPerUnitCell < 1.0)) return Walk(true, node, node + 1u, depth);
+    uint child = (P.x <= centre.x ? 4u : 0u) | (P.y <= centre.y ? 2u : 0u) | (P.z <= centre.z ? 1u : 0u);
+    if ((childMask & (1u << child)) == 0u) return Walk(true, node, node + 1u, depth);
+    uint kindMask = texel(node + 1u).a;
+    uint before = childMask & ((1u << child) - 1u);
+    node += (first.r | (first.g << 8) | (first.b << 16)) + uint(bitCount(before)) + uint(bitCount(before & kindMask));
+    float quarter = width * 0.25;
+    centre += vec3((child & 4u) != 0u ? -quarter : quarter, (child & 2u) != 0u ? -quarter : quarter,
+                   (child & 1u) != 0u ? -quarter : quarter);
+    width *= 0.5;
+    ++depth;
+  }
+  return Walk(true, node, node, depth);
+}
+
+vec3 unitPointOf(vec3 world) { return world * unitScale + unitOffset; }
+)";
+
+// m shaded with the APO's normal; outside the octree, m's own normal.
+inline constexpr std::string_view kApoFragment = R"(
+in vec3 worldPosition;
+in vec3 worldNormal;
+layout(location = 0) out vec4 shaded;
+layout(location = 1) out vec4 normalAndCoverage;
+void main() {
+  Walk w = walk(unitPointOf(worldPosition), 255, length(eye - worldPosition));
+  vec3 n = w.found ? decodeNormal(texel(w.normalTexel).rgb) : normalize(worldNormal);
+  shaded = shade(n, worldPosition);
+  normalAndCoverage = vec4(n, 1.0);
+}
+)";
+
+// The exactness pass: the unit-cube point the walk used (exact floats) and
+// the node it stopped at (four bytes), for comparison with the CPU walk.
+inline constexpr std::string_view kApoExactnessFragment = R"(
+in vec3 worldPosition;
+in vec3 worldNormal;
+layout(location = 0) out vec4 nodeBytes;
+layout(location = 1) out vec4 unitPointAndCoverage;
+void main() {
+  vec3 P = unitPointOf(worldPosition);
+  Walk w = walk(P, 255, 1.0);
+  uint node = w.found ? w.node : 0xFFFFFFFFu;
+  nodeBytes = vec4(float(node & 0xFFu), float((node >> 8) & 0xFFu), float((node >> 16) & 0xFFu), float(node >> 24)) / 255.0;
+  unitPointAndCoverage = vec4(P, 1.0);
+}
+)";
+
+}  // namespace apo::shaders
