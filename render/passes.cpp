@@ -208,6 +208,7 @@ Result<std::vector<ViewImages>> renderViews(const Scan* detail, const Scan& coar
     view.baseline = std::move(baseline).value();
     api.UseProgram(programs->apo.id());
     setApoUniforms(api, programs->apo.id(), apo, camera, options.size, options.mipmapping);
+    api.Uniform1i(api.GetUniformLocation(programs->apo.id(), "filtering"), options.filtering ? 1 : 0);
     api.ActiveTexture(GL_TEXTURE0);
     api.BindTexture(GL_TEXTURE_2D, texture->id());
     auto apoPass = renderPass(**context, programs->apo.id(), coarseMesh, camera);

@@ -83,6 +83,7 @@ struct RenderOptions {
   int size = 1024;          // square images, pixels per side
   int views = 14;
   bool mipmapping = true;   // paper 5.2: stop where a cell is smaller than a pixel
+  bool filtering = false;   // paper 5.3: trilinear blend of the 8 neighbouring cells
 };
 
 struct PassImages {

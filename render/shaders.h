@@ -115,6 +115,27 @@ Walk walk(vec3 P, int maxDepth, float distance) {
 }
 
 vec3 unitPointOf(vec3 world) { return world * unitScale + unitOffset; }
+
+vec3 normalAt(Walk w) { return decodeNormal(texel(w.normalTexel).rgb); }
+
+// Paper 5.3: the normal blended trilinearly from the 8 cells around P at the
+// depth of P's own cell, each reached by its own walk; a neighbour that is
+// missing or stops higher gives the normal of the node it stops at.
+vec3 filteredNormal(vec3 P, Walk own, float distance) {
+  float width = 1.0 / float(1u << uint(own.depth));
+  vec3 lattice = P / width - 0.5;
+  vec3 base = floor(lattice);
+  vec3 t = lattice - base;
+  vec3 sum = vec3(0.0);
+  for (int corner = 0; corner < 8; ++corner) {
+    vec3 c = vec3(float((corner >> 2) & 1), float((corner >> 1) & 1), float(corner & 1));
+    vec3 weight3 = mix(1.0 - t, t, c);
+    float weight = weight3.x * weight3.y * weight3.z;
+    Walk w = walk((base + c + 0.5) * width, own.depth, distance);
+    sum += weight * (w.found ? normalAt(w) : normalAt(own));
+  }
+  return normalize(sum);
+}
 )";
 
 // m shaded with the APO's normal; outside the octree, m's own normal.
@@ -123,9 +144,12 @@ in vec3 worldPosition;
 in vec3 worldNormal;
 layout(location = 0) out vec4 shaded;
 layout(location = 1) out vec4 normalAndCoverage;
+uniform bool filtering;
 void main() {
-  Walk w = walk(unitPointOf(worldPosition), 255, length(eye - worldPosition));
-  vec3 n = w.found ? decodeNormal(texel(w.normalTexel).rgb) : normalize(worldNormal);
+  vec3 P = unitPointOf(worldPosition);
+  float distance = length(eye - worldPosition);
+  Walk w = walk(P, 255, distance);
+  vec3 n = !w.found ? normalize(worldNormal) : filtering ? filteredNormal(P, w, distance) : normalAt(w);
   shaded = shade(n, worldPosition);
   normalAndCoverage = vec4(n, 1.0);
 }

@@ -59,5 +59,29 @@ TEST_F(BumpySphereRender, EveryViewHasItsThreePassesOverTheSameSilhouette) {
   }
 }
 
+// Mean angle between the APO pass's normals and the reference's, all views.
+double meanApoError(const std::vector<ViewImages>& views) {
+  std::vector<float> all;
+  for (const ViewImages& view : views) {
+    std::vector<float> angles;
+    angularErrors(view.apo.normals, view.reference.normals, &angles);
+    all.insert(all.end(), angles.begin(), angles.end());
+  }
+  return statsOfAngles(all).mean;
+}
+
+TEST_F(BumpySphereRender, TrilinearFilteringFollowsMsSmoothNormalsCloser) {
+  // Unfiltered, each leaf is one flat normal; on the sphere's smooth parts the
+  // interpolated reference turns inside every leaf (measured: 1.6 degrees
+  // mean unfiltered, 0.7 filtered, at the default bake settings).
+  RenderOptions options;
+  options.size = 128;
+  auto flat = renderViews(detail_, *coarse_, *texture_, options);
+  options.filtering = true;
+  auto filtered = renderViews(detail_, *coarse_, *texture_, options);
+  ASSERT_TRUE(flat.ok() && filtered.ok());
+  EXPECT_LT(meanApoError(*filtered), 0.6 * meanApoError(*flat));
+}
+
 }  // namespace
 }  // namespace apo
