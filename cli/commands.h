@@ -18,5 +18,6 @@ void addReconstructCommand(CLI::App& app, int& exitCode);
 void addSimplifyCommand(CLI::App& app, int& exitCode);
 void addBakeCommand(CLI::App& app, int& exitCode);
 void addLookupCommand(CLI::App& app, int& exitCode);
+void addRenderCommand(CLI::App& app, int& exitCode);
 
 }  // namespace apo::cli

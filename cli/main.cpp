@@ -31,6 +31,7 @@ int main(int argc, char** argv) {
   addSimplifyCommand(app, exitCode);
   addBakeCommand(app, exitCode);
   addLookupCommand(app, exitCode);
+  addRenderCommand(app, exitCode);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& error) {

@@ -103,6 +103,34 @@ struct ViewImages {
 Result<std::vector<ViewImages>> renderViews(const Scan* detail, const Scan& coarse, const ApoTexture& apo,
                                             const RenderOptions& options);
 
+// ---- Figures of the rendered views (render.json) ---------------------------
+
+struct PassFigures {
+  AngularStats angles;  // against the reference's normals
+  ImageMetrics image;   // against the reference's shaded image
+};
+
+struct ViewFigures {
+  PassFigures apo, baseline;
+};
+
+struct RenderFigures {
+  std::vector<ViewFigures> views;
+  AngularStats apo, baseline;  // over the pixels of all views
+  // Per view, the APO's angle per pixel (NaN where not compared), for the heat maps.
+  std::vector<std::vector<float>> apoAngles;
+};
+
+// Needs the reference pass in every view.
+RenderFigures measureViews(const std::vector<ViewImages>& views);
+
+// render.json (format_version 1, docs/render.md).
+std::string renderReportJson(const RenderFigures& figures, const RenderOptions& options, const std::vector<Camera>& cameras);
+
+// A world-space normal buffer as a PFM image (Portable Float Map, RGB,
+// little-endian, rows bottom-up as PFM requires): uncovered pixels are 0 0 0.
+Status writeNormalsPfm(const std::filesystem::path& path, const NormalBuffer& normals);
+
 // The shader's walk against bake/'s lookupTexture: for every pixel m covers,
 // the node the GLSL walk stopped at (read back) and the node the CPU walk
 // reaches from the same unit-cube point (also read back, exact floats).

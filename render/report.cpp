@@ -1,0 +1,93 @@
+// The figures of render.json and the normal buffers as files.
+#include "render/render.h"
+
+#include "core/file_io.h"
+
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+namespace apo {
+namespace {
+
+PassFigures figuresOf(const PassImages& pass, const PassImages& reference, std::vector<float>* angles) {
+  PassFigures figures;
+  figures.angles = angularErrors(pass.normals, reference.normals, angles);
+  figures.image = compareImages(pass.shaded, reference.shaded, pass.normals, reference.normals);
+  return figures;
+}
+
+void append(std::vector<float>& all, const std::vector<float>& more) { all.insert(all.end(), more.begin(), more.end()); }
+
+nlohmann::ordered_json anglesJson(const AngularStats& s) {
+  return {{"pixels", s.pixels}, {"mean", s.mean}, {"median", s.median}, {"p95", s.p95}, {"max", s.max}};
+}
+
+// JSON has no infinity: identical images get a null PSNR.
+nlohmann::ordered_json imageJson(const ImageMetrics& m) {
+  nlohmann::ordered_json json = {{"pixels", m.pixels}, {"mean_absolute_error", m.meanAbsoluteError}};
+  json["psnr_db"] = std::isfinite(m.psnr) ? nlohmann::ordered_json(m.psnr) : nlohmann::ordered_json(nullptr);
+  json["ssim"] = m.ssim;
+  json["silhouette_mismatch"] = m.silhouetteMismatch;
+  return json;
+}
+
+nlohmann::ordered_json passJson(const PassFigures& f) {
+  return {{"angular_error_degrees", anglesJson(f.angles)}, {"image", imageJson(f.image)}};
+}
+
+}  // namespace
+
+RenderFigures measureViews(const std::vector<ViewImages>& views) {
+  RenderFigures figures;
+  std::vector<float> allApo, allBaseline;
+  for (const ViewImages& view : views) {
+    std::vector<float> apo, baseline;
+    figures.views.push_back({figuresOf(view.apo, view.reference, &apo), figuresOf(view.baseline, view.reference, &baseline)});
+    append(allApo, apo);
+    append(allBaseline, baseline);
+    figures.apoAngles.push_back(std::move(apo));
+  }
+  figures.apo = statsOfAngles(std::move(allApo));
+  figures.baseline = statsOfAngles(std::move(allBaseline));
+  return figures;
+}
+
+std::string renderReportJson(const RenderFigures& figures, const RenderOptions& options, const std::vector<Camera>& cameras) {
+  nlohmann::ordered_json json;
+  json["format_version"] = 1;
+  json["options"] = {{"size", options.size}, {"views", options.views}, {"mipmapping", options.mipmapping},
+                     {"filtering", options.filtering}};
+  json["overall"] = {{"apo", anglesJson(figures.apo)},
+                     {"baseline", anglesJson(figures.baseline)},
+                     {"baseline_over_apo", figures.apo.mean > 0.0 ? figures.baseline.mean / figures.apo.mean : 0.0}};
+  nlohmann::ordered_json views = nlohmann::ordered_json::array();
+  for (std::size_t i = 0; i < figures.views.size(); ++i) {
+    nlohmann::ordered_json view = {{"index", i}};
+    if (i < cameras.size()) view["eye"] = {cameras[i].eye.x(), cameras[i].eye.y(), cameras[i].eye.z()};
+    view["apo"] = passJson(figures.views[i].apo);
+    view["baseline"] = passJson(figures.views[i].baseline);
+    views.push_back(view);
+  }
+  json["views"] = views;
+  return json.dump(2) + "\n";
+}
+
+Status writeNormalsPfm(const std::filesystem::path& path, const NormalBuffer& normals) {
+  std::string bytes = "PF\n" + std::to_string(normals.width) + " " + std::to_string(normals.height) + "\n-1.0\n";
+  const std::size_t header = bytes.size();
+  bytes.resize(header + 12 * static_cast<std::size_t>(normals.width) * static_cast<std::size_t>(normals.height));
+  char* out = bytes.data() + header;
+  for (int row = normals.height - 1; row >= 0; --row)  // PFM stores the bottom row first
+    for (int column = 0; column < normals.width; ++column) {
+      const std::size_t pixel = static_cast<std::size_t>(row) * static_cast<std::size_t>(normals.width) + static_cast<std::size_t>(column);
+      const Vec3f n = normals.covered(pixel) ? normals.normal(pixel) : Vec3f(Vec3f::Zero());
+      std::memcpy(out, n.data(), 12);  // little-endian floats on this platform, as the -1.0 scale says
+      out += 12;
+    }
+  return writeFileAtomically(path, bytes);
+}
+
+}  // namespace apo
