@@ -8,12 +8,13 @@
 //       half a period, 25 triangles, wide, tilting the normal by up to
 //       atan(amplitude x diag x w).
 //   make_detail_mesh torus M.ply m.ply [--nu 3000 --nv 1200 --coarse-nu 150 --coarse-nv 50]
-//                    [--amplitude 0.001] [--period-edges 50]
+//                    [--amplitude 0.001] [--period-edges 50] [--coarse-shift-u 0.3 --coarse-shift-v 0.6]
 //       A torus (R = 1, r = 0.4) as an nu x nv grid (2 nu nv triangles) whose
 //       vertices move along the tube's normal by amplitude x diag x
 //       sin(ku u) sin(kv v), ku = round(nu / period-edges),
 //       kv = round(nv / period-edges), and the plain torus as a
-//       coarse-nu x coarse-nv grid for m. Outward, counter-clockwise.
+//       coarse-nu x coarse-nv grid for m, shifted by --coarse-shift-u 0.3 and
+//       --coarse-shift-v 0.6 of M's grid step. Outward, counter-clockwise.
 //   make_detail_mesh sample m.ply COUNT SEED POINTS.xyz MNORMALS.xyz
 //       COUNT points uniform by area on m (mt19937_64, SEED) and m's
 //       interpolated vertex normal at each (the file's normals, else
@@ -128,15 +129,16 @@ int displace(const Args& args) {
   return 0;
 }
 
-// nu x nv grid on the torus, displaced by amplitude sin(ku u) sin(kv v).
-Scan torusGrid(int nu, int nv, double amplitude, int ku, int kv) {
+// nu x nv grid on the torus, displaced by amplitude sin(ku u) sin(kv v), its
+// vertices at u = 2 pi (i / nu) + phaseU, v = 2 pi (j / nv) + phaseV.
+Scan torusGrid(int nu, int nv, double amplitude, int ku, int kv, double phaseU = 0.0, double phaseV = 0.0) {
   constexpr double R = 1.0, r = 0.4;
   Scan mesh;
   mesh.points.positions.reserve(static_cast<std::size_t>(nu) * nv);
   for (int i = 0; i < nu; ++i) {
-    const double u = 2.0 * kPi * i / nu;
+    const double u = 2.0 * kPi * i / nu + phaseU;
     for (int j = 0; j < nv; ++j) {
-      const double v = 2.0 * kPi * j / nv;
+      const double v = 2.0 * kPi * j / nv + phaseV;
       const Vec3d n(std::cos(v) * std::cos(u), std::cos(v) * std::sin(u), std::sin(v));
       const Vec3d centre(R * std::cos(u), R * std::sin(u), 0.0);
       const double h = r + amplitude * std::sin(ku * u) * std::sin(kv * v);
@@ -164,7 +166,11 @@ int torus(const Args& args) {
   const double amplitude = args.number("amplitude", 0.001) * diag;
   const Scan detail = torusGrid(nu, nv, amplitude, ku, kv);
   writeOrDie(args.positional[0], detail);
-  const Scan coarse = torusGrid(cnu, cnv, 0.0, 0, 0);
+  // m's grid lines are shifted off M's (by default 0.3 and 0.6 of M's grid
+  // step, off M's diagonals too): rays from m's edges would otherwise run
+  // exactly through M's edges and vertices.
+  const double shiftU = args.number("coarse-shift-u", 0.3), shiftV = args.number("coarse-shift-v", 0.6);
+  const Scan coarse = torusGrid(cnu, cnv, 0.0, 0, 0, 2.0 * kPi * shiftU / nu, 2.0 * kPi * shiftV / nv);
   writeOrDie(args.positional[1], coarse);
   std::printf("torus: M %zu triangles (%d x %d, ku %d, kv %d, amplitude %.6g), m %zu triangles (%d x %d)\n",
               detail.triangles.size(), nu, nv, ku, kv, amplitude, coarse.triangles.size(), cnu, cnv);
@@ -360,7 +366,7 @@ int main(int argc, char** argv) {
   if (code == 1)
     std::fprintf(stderr,
                  "usage: make_detail_mesh displace IN OUT.ply [--amplitude A] [--period-edges P]\n"
-                 "     | torus M.ply m.ply [--nu --nv --coarse-nu --coarse-nv --amplitude --period-edges]\n"
+                 "     | torus M.ply m.ply [--nu --nv --coarse-nu --coarse-nv --amplitude --period-edges --coarse-shift-u/v]\n"
                  "     | sample m.ply COUNT SEED POINTS.xyz MNORMALS.xyz\n"
                  "     | compare M.ply POINTS.xyz MNORMALS.xyz NORMALS.xyz [--reach R]\n");
   return code;
