@@ -12,7 +12,9 @@
 #include <array>
 #include <bit>
 #include <cmath>
+#include <memory>
 #include <numbers>
+#include <optional>
 #include <string>
 
 namespace apo {
@@ -148,6 +150,38 @@ Result<PassImages> renderPass(const gl::Context& context, GLuint program, const 
   return readPass(context);
 }
 
+// What every rendering of m with the APO needs, made once. The context is
+// declared first so that the GL objects are released before it.
+struct ApoScene {
+  std::unique_ptr<gl::Context> context;
+  Programs programs;
+  gl::Texture texture;
+  GpuMesh coarse;
+};
+
+Result<ApoScene> makeApoScene(const Scan& coarse, const ApoTexture& apo, int size) {
+  if (!coarse.isMesh()) return badInput("render: m has no triangles");
+  auto context = gl::Context::create(size, size);
+  if (!context) return context.error();
+  const gl::Api& api = (*context)->api();
+  auto programs = buildPrograms(api);
+  if (!programs) return programs.error();
+  auto texture = gl::uploadApoTexture(**context, apo);
+  if (!texture) return texture.error();
+  GpuMesh mesh = upload(api, coarse);
+  return ApoScene{std::move(context).value(), std::move(programs).value(), std::move(texture).value(), std::move(mesh)};
+}
+
+// Makes `program` (one of the APO variants) current with its uniforms and
+// the APO texture bound.
+void useApoProgram(const ApoScene& scene, GLuint program, const ApoTexture& apo, const Camera& camera, bool mipmapping) {
+  const gl::Api& api = scene.context->api();
+  api.UseProgram(program);
+  setApoUniforms(api, program, apo, camera, scene.context->width(), mipmapping);
+  api.ActiveTexture(GL_TEXTURE0);
+  api.BindTexture(GL_TEXTURE_2D, scene.texture.id());
+}
+
 Aabb sceneBox(const Scan* detail, const Scan& coarse) {
   Aabb box = boundingBox(coarse.points.positions);
   if (detail)
@@ -181,16 +215,12 @@ std::vector<Camera> standardViews(const Aabb& box, int count) {
 
 Result<std::vector<ViewImages>> renderViews(const Scan* detail, const Scan& coarse, const ApoTexture& apo,
                                             const RenderOptions& options) {
-  if (!coarse.isMesh()) return badInput("render: m has no triangles");
   if (detail && !detail->isMesh()) return badInput("render: M as points (splats) is not supported yet; give M as a mesh");
-  auto context = gl::Context::create(options.size, options.size);
-  if (!context) return context.error();
-  const gl::Api& api = (*context)->api();
-  auto programs = buildPrograms(api);
-  if (!programs) return programs.error();
-  auto texture = gl::uploadApoTexture(**context, apo);
-  if (!texture) return texture.error();
-  const GpuMesh coarseMesh = upload(api, coarse);
+  auto scene = makeApoScene(coarse, apo, options.size);
+  if (!scene) return scene.error();
+  const gl::Context& context = *scene->context;
+  const gl::Api& api = context.api();
+  const Programs& programs = scene->programs;
   std::optional<GpuMesh> detailMesh;
   if (detail) detailMesh = upload(api, *detail);
 
@@ -199,19 +229,16 @@ Result<std::vector<ViewImages>> renderViews(const Scan* detail, const Scan& coar
     ViewImages view;
     view.camera = camera;
     if (detailMesh) {
-      auto reference = renderPass(**context, programs->vertexNormals.id(), *detailMesh, camera);
+      auto reference = renderPass(context, programs.vertexNormals.id(), *detailMesh, camera);
       if (!reference) return reference.error();
       view.reference = std::move(reference).value();
     }
-    auto baseline = renderPass(**context, programs->vertexNormals.id(), coarseMesh, camera);
+    auto baseline = renderPass(context, programs.vertexNormals.id(), scene->coarse, camera);
     if (!baseline) return baseline.error();
     view.baseline = std::move(baseline).value();
-    api.UseProgram(programs->apo.id());
-    setApoUniforms(api, programs->apo.id(), apo, camera, options.size, options.mipmapping);
-    api.Uniform1i(api.GetUniformLocation(programs->apo.id(), "filtering"), options.filtering ? 1 : 0);
-    api.ActiveTexture(GL_TEXTURE0);
-    api.BindTexture(GL_TEXTURE_2D, texture->id());
-    auto apoPass = renderPass(**context, programs->apo.id(), coarseMesh, camera);
+    useApoProgram(*scene, programs.apo.id(), apo, camera, options.mipmapping);
+    api.Uniform1i(api.GetUniformLocation(programs.apo.id(), "filtering"), options.filtering ? 1 : 0);
+    auto apoPass = renderPass(context, programs.apo.id(), scene->coarse, camera);
     if (!apoPass) return apoPass.error();
     view.apo = std::move(apoPass).value();
     views.push_back(std::move(view));
@@ -220,23 +247,13 @@ Result<std::vector<ViewImages>> renderViews(const Scan* detail, const Scan& coar
 }
 
 Result<WalkAgreement> compareWalkWithCpu(const Scan& coarse, const ApoTexture& apo, int size, int views) {
-  if (!coarse.isMesh()) return badInput("render: m has no triangles");
-  auto context = gl::Context::create(size, size);
-  if (!context) return context.error();
-  const gl::Api& api = (*context)->api();
-  auto programs = buildPrograms(api);
-  if (!programs) return programs.error();
-  auto texture = gl::uploadApoTexture(**context, apo);
-  if (!texture) return texture.error();
-  const GpuMesh mesh = upload(api, coarse);
-  const GLuint program = programs->exactness.id();
+  auto scene = makeApoScene(coarse, apo, size);
+  if (!scene) return scene.error();
+  const GLuint program = scene->programs.exactness.id();
   WalkAgreement agreement;
   for (const Camera& camera : standardViews(boundingBox(coarse.points.positions), views)) {
-    api.UseProgram(program);
-    setApoUniforms(api, program, apo, camera, size, false);
-    api.ActiveTexture(GL_TEXTURE0);
-    api.BindTexture(GL_TEXTURE_2D, texture->id());
-    auto pass = renderPass(**context, program, mesh, camera);
+    useApoProgram(*scene, program, apo, camera, false);
+    auto pass = renderPass(*scene->context, program, scene->coarse, camera);
     if (!pass) return pass.error();
     const std::size_t pixels = static_cast<std::size_t>(size) * static_cast<std::size_t>(size);
     for (std::size_t i = 0; i < pixels; ++i) {
