@@ -19,9 +19,7 @@ namespace apo {
 namespace {
 using ::testing::HasSubstr;
 
-double degreesBetween(const Vec3f& a, const Vec3f& b) {
-  return std::acos(std::clamp(static_cast<double>(a.normalized().dot(b.normalized())), -1.0, 1.0)) * 180.0 / std::numbers::pi;
-}
+using test::degreesBetween;
 
 // World-space centre of every node, walking the broods from the root.
 std::vector<Vec3f> nodeCentres(const Octree& octree) {

@@ -12,6 +12,11 @@
 
 namespace apo::test {
 
+// Angle between two directions in degrees (any lengths).
+inline double degreesBetween(const Vec3f& a, const Vec3f& b) {
+  return std::atan2(static_cast<double>(a.cross(b).norm()), static_cast<double>(a.dot(b))) * 180.0 / 3.14159265358979323846;
+}
+
 struct BumpySphere {
   float amplitude = 0.04f;
   float width = 0.3f;  // s, in radians of the unit sphere (about)

@@ -18,9 +18,7 @@
 namespace apo {
 namespace {
 
-double degreesBetween(const Vec3f& a, const Vec3f& b) {
-  return std::acos(std::clamp(static_cast<double>(a.normalized().dot(b.normalized())), -1.0, 1.0)) * 180.0 / std::numbers::pi;
-}
+using test::degreesBetween;
 
 BakeOptions smallOptions() {
   BakeOptions options;
