@@ -46,15 +46,17 @@ Status writePass(const fs::path& dir, const std::string& stem, const PassImages&
   return writeNormalsPfm(dir / (stem + "_normals.pfm"), pass.normals);
 }
 
-Status writeViews(const fs::path& dir, const std::vector<ViewImages>& views, const RenderFigures* figures) {
+// The reference and the heat maps exist only when M was given.
+Status writeViews(const fs::path& dir, const std::vector<ViewImages>& views, const RenderFigures& figures) {
+  const bool withReference = !figures.apoAngles.empty();
   for (std::size_t i = 0; i < views.size(); ++i) {
     const std::string prefix = fmt::format("view{:02d}_", i);
-    if (figures) APO_RETURN_IF_ERROR(writePass(dir, prefix + "reference", views[i].reference));
+    if (withReference) APO_RETURN_IF_ERROR(writePass(dir, prefix + "reference", views[i].reference));
     APO_RETURN_IF_ERROR(writePass(dir, prefix + "baseline", views[i].baseline));
     APO_RETURN_IF_ERROR(writePass(dir, prefix + "apo", views[i].apo));
-    if (figures)
+    if (withReference)
       APO_RETURN_IF_ERROR(writeImagePng(dir / (prefix + "apo_error.png"),
-                                        errorHeatMap(figures->apoAngles[i], views[i].apo.shaded.width,
+                                        errorHeatMap(figures.apoAngles[i], views[i].apo.shaded.width,
                                                      views[i].apo.shaded.height, kHeatMapDegrees)));
   }
   return okStatus();
@@ -78,9 +80,8 @@ int runRender(RenderCommand command) {
   if (!views) return reportFailure(aboutInput(command.detail.empty() ? command.coarse : command.detail, views.error()));
   std::vector<Camera> cameras;
   for (const ViewImages& view : *views) cameras.push_back(view.camera);
-  RenderFigures figures;
-  if (detail) figures = measureViews(*views);
-  if (Status s = writeViews(command.outDir, *views, detail ? &figures : nullptr); !s.ok()) return reportFailure(s.error());
+  const RenderFigures figures = measureViews(*views);
+  if (Status s = writeViews(command.outDir, *views, figures); !s.ok()) return reportFailure(s.error());
   if (Status s = writeFileAtomically(command.outDir / "render.json", renderReportJson(figures, command.options, cameras));
       !s.ok())
     return reportFailure(s.error());
@@ -90,6 +91,12 @@ int runRender(RenderCommand command) {
                  figures.apo.mean > 0 ? figures.baseline.mean / figures.apo.mean : 0.0, command.outDir.string());
   else
     spdlog::info("render: {} views at {}px -> {}", views->size(), command.options.size, command.outDir.string());
+  if (command.options.timedFrames > 0)
+    spdlog::info("render: median frame {:.1f} ms with the APO ({:.1f} texel reads per fragment, at most {}), {:.1f} ms for m "
+                 "alone{}",
+                 figures.cost.apoMilliseconds, figures.cost.apoFetches.mean, figures.cost.apoFetches.max,
+                 figures.cost.baselineMilliseconds,
+                 detail ? fmt::format(", {:.1f} ms for M", figures.cost.referenceMilliseconds) : std::string());
   return kExitSuccess;
 }
 
@@ -100,7 +107,7 @@ void addRenderCommand(CLI::App& app, int& exitCode) {
   CLI::App* sub = app.add_subcommand("render", "Render m with the APO next to M, headless, and measure the difference");
   sub->add_option("--apo", command->apo, "The .apo file (apo bake)")->required();
   sub->add_option("--coarse", command->coarse, "m, the mesh the APO was baked around")->required();
-  sub->add_option("--detail", command->detail, "M, the dense mesh: the reference the metrics compare with");
+  sub->add_option("--detail", command->detail, "M, the dense mesh or the points: the reference the metrics compare with");
   sub->add_option("-o,--out", command->outDir, "Output folder (PNGs, normal buffers, heat maps, render.json)")->required();
   sub->add_option("--size", command->options.size, "Image side in pixels")->capture_default_str();
   sub->add_option("--views", command->options.views, "Views: the 6 axis directions, then the 8 cube diagonals")
@@ -108,6 +115,9 @@ void addRenderCommand(CLI::App& app, int& exitCode) {
       ->capture_default_str();
   sub->add_flag("--no-mipmap", command->noMipmapping, "Walk to the leaves even where cells are smaller than a pixel");
   sub->add_flag("--filter", command->options.filtering, "Trilinear filtering of the 8 neighbouring cells (paper 5.3)");
+  sub->add_option("--frames", command->options.timedFrames, "Frames timed per pass and view (median); 0: no timing")
+      ->check(CLI::Range(0, 1000))
+      ->capture_default_str();
   sub->callback([command, &exitCode] { exitCode = guarded([&] { return runRender(*command); }); });
 }
 

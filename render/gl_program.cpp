@@ -1,6 +1,7 @@
 #include "render/gl_program.h"
 
 #include <cctype>
+#include <optional>
 #include <string>
 
 namespace apo::gl {
@@ -65,9 +66,16 @@ Texture makeTexture(const Api& api) {
   return Texture(api, id);
 }
 
-Result<Program> buildProgram(const Api& api, std::string_view vertexSource, std::string_view fragmentSource) {
+Result<Program> buildProgram(const Api& api, std::string_view vertexSource, std::string_view fragmentSource,
+                             std::string_view geometrySource) {
   auto vertex = compileShader(api, GL_VERTEX_SHADER, "vertex shader", vertexSource);
   if (!vertex) return vertex.error();
+  std::optional<Shader> geometry;
+  if (!geometrySource.empty()) {
+    auto compiled = compileShader(api, GL_GEOMETRY_SHADER, "geometry shader", geometrySource);
+    if (!compiled) return compiled.error();
+    geometry = std::move(compiled).value();
+  }
   auto fragment = compileShader(api, GL_FRAGMENT_SHADER, "fragment shader", fragmentSource);
   if (!fragment) return fragment.error();
 
@@ -75,6 +83,7 @@ Result<Program> buildProgram(const Api& api, std::string_view vertexSource, std:
   Program program(api, api.CreateProgram());
   if (program.id() == 0) return internalError("glCreateProgram failed");
   api.AttachShader(program.id(), vertex->id());
+  if (geometry) api.AttachShader(program.id(), geometry->id());
   api.AttachShader(program.id(), fragment->id());
   api.LinkProgram(program.id());
   GLint linked = GL_FALSE;

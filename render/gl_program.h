@@ -57,8 +57,10 @@ Buffer makeBuffer(const Api& api);
 VertexArray makeVertexArray(const Api& api);
 Texture makeTexture(const Api& api);
 
-// Compiles both stages and links them. Internal error naming the stage that
-// failed ("vertex shader", "fragment shader" or "link") with GL's full log.
-Result<Program> buildProgram(const Api& api, std::string_view vertexSource, std::string_view fragmentSource);
+// Compiles the stages and links them; an empty geometry source means no
+// geometry stage. Internal error naming the stage that failed ("vertex
+// shader", "geometry shader", "fragment shader" or "link") with GL's full log.
+Result<Program> buildProgram(const Api& api, std::string_view vertexSource, std::string_view fragmentSource,
+                             std::string_view geometrySource = {});
 
 }  // namespace apo::gl

@@ -9,7 +9,9 @@
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
 #include <array>
+#include <initializer_list>
 #include <bit>
 #include <cmath>
 #include <memory>
@@ -49,22 +51,38 @@ Eigen::Matrix4f perspective(const Camera& c) {
   return p;
 }
 
-// A mesh in GL buffers: interleaved position and normal, then indices.
-struct GpuMesh {
+// Geometry in GL buffers: a mesh (interleaved position and normal, then
+// indices) or a point cloud as splats (position, normal, disc radius).
+struct GpuGeometry {
   gl::VertexArray vertexArray;
   gl::Buffer vertices, indices;
-  GLsizei indexCount = 0;
+  GLsizei count = 0;  // indices of a mesh, points of a cloud
+  bool points = false;
 };
 
-GpuMesh upload(const gl::Api& api, const Scan& mesh) {
+// Binds float attributes 0, 1, ... of the given widths, interleaved.
+void describeInterleaved(const gl::Api& api, std::initializer_list<GLint> widths) {
+  GLint stride = 0;
+  for (GLint width : widths) stride += width;
+  GLuint attribute = 0;
+  std::uintptr_t offset = 0;
+  for (GLint width : widths) {
+    api.EnableVertexAttribArray(attribute);
+    api.VertexAttribPointer(attribute++, width, GL_FLOAT, GL_FALSE, stride * static_cast<GLsizei>(sizeof(float)),
+                            reinterpret_cast<const void*>(offset));
+    offset += static_cast<std::uintptr_t>(width) * sizeof(float);
+  }
+}
+
+GpuGeometry uploadMesh(const gl::Api& api, const Scan& mesh) {
   const std::vector<Vec3f> normals =
       mesh.points.normals.size() == mesh.points.size() ? mesh.points.normals : areaWeightedVertexNormals(mesh);
   std::vector<float> interleaved;
   interleaved.reserve(6 * mesh.points.size());
   for (std::size_t i = 0; i < mesh.points.size(); ++i)
     for (const Vec3f* v : {&mesh.points.positions[i], &normals[i]}) interleaved.insert(interleaved.end(), v->data(), v->data() + 3);
-  GpuMesh gpu{gl::makeVertexArray(api), gl::makeBuffer(api), gl::makeBuffer(api),
-              static_cast<GLsizei>(3 * mesh.triangles.size())};
+  GpuGeometry gpu{gl::makeVertexArray(api), gl::makeBuffer(api), gl::makeBuffer(api),
+                  static_cast<GLsizei>(3 * mesh.triangles.size()), false};
   api.BindVertexArray(gpu.vertexArray.id());
   api.BindBuffer(GL_ARRAY_BUFFER, gpu.vertices.id());
   api.BufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(interleaved.size() * sizeof(float)), interleaved.data(),
@@ -72,36 +90,63 @@ GpuMesh upload(const gl::Api& api, const Scan& mesh) {
   api.BindBuffer(GL_ELEMENT_ARRAY_BUFFER, gpu.indices.id());
   api.BufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(mesh.triangles.size() * sizeof(Triangle)),
                  mesh.triangles.data(), GL_STATIC_DRAW);
-  for (GLuint attribute : {0u, 1u}) {
-    api.EnableVertexAttribArray(attribute);
-    api.VertexAttribPointer(attribute, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float),
-                            reinterpret_cast<const void*>(static_cast<std::uintptr_t>(attribute * 3 * sizeof(float))));
-  }
+  describeInterleaved(api, {3, 3});
   api.BindVertexArray(0);
   return gpu;
 }
 
-std::string fragmentSource(std::string_view body, bool apo) {
+// The points with their normals and disc radii (bake/'s: the same discs the
+// bake's rays hit).
+Result<GpuGeometry> uploadSplats(const gl::Api& api, const PointSet& points) {
+  if (!points.hasNormals()) return badInput("render: M is a point cloud without normals (run apo ingest, which estimates them)");
+  const std::vector<float> radii = discRadii(points);
+  std::vector<float> interleaved;
+  interleaved.reserve(7 * points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    for (const Vec3f* v : {&points.positions[i], &points.normals[i]}) interleaved.insert(interleaved.end(), v->data(), v->data() + 3);
+    interleaved.push_back(radii[i]);
+  }
+  GpuGeometry gpu{gl::makeVertexArray(api), gl::makeBuffer(api), gl::Buffer(), static_cast<GLsizei>(points.size()), true};
+  api.BindVertexArray(gpu.vertexArray.id());
+  api.BindBuffer(GL_ARRAY_BUFFER, gpu.vertices.id());
+  api.BufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(interleaved.size() * sizeof(float)), interleaved.data(),
+                 GL_STATIC_DRAW);
+  describeInterleaved(api, {3, 3, 1});
+  api.BindVertexArray(0);
+  return gpu;
+}
+
+enum class Walk { None, Plain, CountingFetches };
+
+std::string fragmentSource(std::string_view body, Walk walk) {
   std::string source = "#version 450 core\n";
+  if (walk == Walk::CountingFetches) source += "#define COUNT_FETCHES\n";
   source += shaders::kShading;
-  if (apo) source += shaders::kApoWalk;
+  if (walk != Walk::None) source += shaders::kApoWalk;
   source += body;
   return source;
 }
 
 // The programs of the passes, built once per context.
 struct Programs {
-  gl::Program vertexNormals, apo, exactness;
+  gl::Program vertexNormals, splats, apo, apoCountingFetches, exactness;
 };
 
 Result<Programs> buildPrograms(const gl::Api& api) {
-  auto plain = gl::buildProgram(api, shaders::kMeshVertex, fragmentSource(shaders::kVertexNormalFragment, false));
-  if (!plain) return plain.error();
-  auto apo = gl::buildProgram(api, shaders::kMeshVertex, fragmentSource(shaders::kApoFragment, true));
-  if (!apo) return apo.error();
-  auto exact = gl::buildProgram(api, shaders::kMeshVertex, fragmentSource(shaders::kApoExactnessFragment, true));
-  if (!exact) return exact.error();
-  return Programs{std::move(plain).value(), std::move(apo).value(), std::move(exact).value()};
+  Programs programs;
+  const auto build = [&](gl::Program& program, std::string_view body, Walk walk,
+                         std::string_view vertex = shaders::kMeshVertex, std::string_view geometry = {}) -> Status {
+    auto built = gl::buildProgram(api, vertex, fragmentSource(body, walk), geometry);
+    if (!built) return built.error();
+    program = std::move(built).value();
+    return okStatus();
+  };
+  APO_RETURN_IF_ERROR(build(programs.vertexNormals, shaders::kVertexNormalFragment, Walk::None));
+  APO_RETURN_IF_ERROR(build(programs.splats, shaders::kSplatFragment, Walk::None, shaders::kSplatVertex, shaders::kSplatGeometry));
+  APO_RETURN_IF_ERROR(build(programs.apo, shaders::kApoFragment, Walk::Plain));
+  APO_RETURN_IF_ERROR(build(programs.apoCountingFetches, shaders::kApoFragment, Walk::CountingFetches));
+  APO_RETURN_IF_ERROR(build(programs.exactness, shaders::kApoExactnessFragment, Walk::Plain));
+  return programs;
 }
 
 void setCameraUniforms(const gl::Api& api, GLuint program, const Camera& camera) {
@@ -125,9 +170,12 @@ void setApoUniforms(const gl::Api& api, GLuint program, const ApoTexture& apo, c
                 static_cast<float>(size) / (2.0f * std::tan(0.5f * radians(camera.fovYDegrees))));
 }
 
-void draw(const gl::Api& api, const GpuMesh& mesh) {
-  api.BindVertexArray(mesh.vertexArray.id());
-  api.DrawElements(GL_TRIANGLES, mesh.indexCount, GL_UNSIGNED_INT, nullptr);
+void draw(const gl::Api& api, const GpuGeometry& geometry) {
+  api.BindVertexArray(geometry.vertexArray.id());
+  if (geometry.points)
+    api.DrawArrays(GL_POINTS, 0, geometry.count);
+  else
+    api.DrawElements(GL_TRIANGLES, geometry.count, GL_UNSIGNED_INT, nullptr);
   api.BindVertexArray(0);
 }
 
@@ -139,15 +187,42 @@ Result<PassImages> readPass(const gl::Context& context) {
   return PassImages{std::move(shaded).value(), std::move(normals).value()};
 }
 
-Result<PassImages> renderPass(const gl::Context& context, GLuint program, const GpuMesh& mesh, const Camera& camera) {
+// One frame of a pass, its uniforms other than the camera's already set.
+void drawFrame(const gl::Context& context, GLuint program, const GpuGeometry& geometry, const Camera& camera) {
   const gl::Api& api = context.api();
   context.clearTarget(kBackground);
   api.Enable(GL_DEPTH_TEST);
   api.UseProgram(program);
   setCameraUniforms(api, program, camera);
-  draw(api, mesh);
-  APO_RETURN_IF_ERROR(gl::checkGlErrors(api, "drawing a pass"));
+  draw(api, geometry);
+}
+
+Result<PassImages> renderPass(const gl::Context& context, GLuint program, const GpuGeometry& geometry, const Camera& camera) {
+  drawFrame(context, program, geometry, camera);
+  APO_RETURN_IF_ERROR(gl::checkGlErrors(context.api(), "drawing a pass"));
   return readPass(context);
+}
+
+// The median time of `frames` frames of the pass; 0 for no frames.
+Result<double> timePass(const gl::Context& context, GLuint program, const GpuGeometry& geometry, const Camera& camera,
+                        int frames) {
+  if (frames <= 0) return 0.0;
+  return gl::medianFrameMilliseconds(context.api(), frames, [&] { drawFrame(context, program, geometry, camera); });
+}
+
+// Texel reads per covered pixel, as the counting variant wrote them.
+FetchCounts countFetches(const NormalBuffer& counts) {
+  FetchCounts result;
+  double sum = 0.0;
+  for (std::size_t i = 0; i < counts.data.size() / 4; ++i) {
+    if (!counts.covered(i)) continue;
+    const auto fetches = static_cast<std::uint32_t>(counts.data[4 * i]);
+    ++result.fragments;
+    sum += fetches;
+    result.max = std::max(result.max, fetches);
+  }
+  result.mean = result.fragments > 0 ? sum / static_cast<double>(result.fragments) : 0.0;
+  return result;
 }
 
 // What every rendering of m with the APO needs, made once. The context is
@@ -156,7 +231,7 @@ struct ApoScene {
   std::unique_ptr<gl::Context> context;
   Programs programs;
   gl::Texture texture;
-  GpuMesh coarse;
+  GpuGeometry coarse;
 };
 
 Result<ApoScene> makeApoScene(const Scan& coarse, const ApoTexture& apo, int size) {
@@ -168,18 +243,68 @@ Result<ApoScene> makeApoScene(const Scan& coarse, const ApoTexture& apo, int siz
   if (!programs) return programs.error();
   auto texture = gl::uploadApoTexture(**context, apo);
   if (!texture) return texture.error();
-  GpuMesh mesh = upload(api, coarse);
+  GpuGeometry mesh = uploadMesh(api, coarse);
   return ApoScene{std::move(context).value(), std::move(programs).value(), std::move(texture).value(), std::move(mesh)};
 }
 
 // Makes `program` (one of the APO variants) current with its uniforms and
 // the APO texture bound.
-void useApoProgram(const ApoScene& scene, GLuint program, const ApoTexture& apo, const Camera& camera, bool mipmapping) {
+void useApoProgram(const ApoScene& scene, GLuint program, const ApoTexture& apo, const Camera& camera, bool mipmapping,
+                   bool filtering) {
   const gl::Api& api = scene.context->api();
   api.UseProgram(program);
   setApoUniforms(api, program, apo, camera, scene.context->width(), mipmapping);
+  api.Uniform1i(api.GetUniformLocation(program, "filtering"), filtering ? 1 : 0);
   api.ActiveTexture(GL_TEXTURE0);
   api.BindTexture(GL_TEXTURE_2D, scene.texture.id());
+}
+
+Result<GpuGeometry> uploadDetail(const gl::Api& api, const Scan& detail) {
+  if (detail.isMesh()) return uploadMesh(api, detail);
+  return uploadSplats(api, detail.points);
+}
+
+// The reference pass: M with its normals, and its frame time.
+Status renderReference(const ApoScene& scene, const GpuGeometry& detail, const Camera& camera, int frames, ViewImages& view) {
+  const GLuint program = detail.points ? scene.programs.splats.id() : scene.programs.vertexNormals.id();
+  auto pass = renderPass(*scene.context, program, detail, camera);
+  if (!pass) return pass.error();
+  view.reference = std::move(pass).value();
+  auto milliseconds = timePass(*scene.context, program, detail, camera, frames);
+  if (!milliseconds) return milliseconds.error();
+  view.cost.referenceMilliseconds = *milliseconds;
+  return okStatus();
+}
+
+Status renderBaseline(const ApoScene& scene, const Camera& camera, int frames, ViewImages& view) {
+  const GLuint program = scene.programs.vertexNormals.id();
+  auto pass = renderPass(*scene.context, program, scene.coarse, camera);
+  if (!pass) return pass.error();
+  view.baseline = std::move(pass).value();
+  auto milliseconds = timePass(*scene.context, program, scene.coarse, camera, frames);
+  if (!milliseconds) return milliseconds.error();
+  view.cost.baselineMilliseconds = *milliseconds;
+  return okStatus();
+}
+
+// The APO pass, its frame time, and its texel reads by the counting variant.
+Status renderApo(const ApoScene& scene, const ApoTexture& apo, const Camera& camera, const RenderOptions& options,
+                 ViewImages& view) {
+  const GLuint program = scene.programs.apo.id();
+  useApoProgram(scene, program, apo, camera, options.mipmapping, options.filtering);
+  auto pass = renderPass(*scene.context, program, scene.coarse, camera);
+  if (!pass) return pass.error();
+  view.apo = std::move(pass).value();
+  auto milliseconds = timePass(*scene.context, program, scene.coarse, camera, options.timedFrames);
+  if (!milliseconds) return milliseconds.error();
+  view.cost.apoMilliseconds = *milliseconds;
+
+  const GLuint counting = scene.programs.apoCountingFetches.id();
+  useApoProgram(scene, counting, apo, camera, options.mipmapping, options.filtering);
+  auto counted = renderPass(*scene.context, counting, scene.coarse, camera);
+  if (!counted) return counted.error();
+  view.cost.apoFetches = countFetches(counted->normals);
+  return okStatus();
 }
 
 Aabb sceneBox(const Scan* detail, const Scan& coarse) {
@@ -215,46 +340,49 @@ std::vector<Camera> standardViews(const Aabb& box, int count) {
 
 Result<std::vector<ViewImages>> renderViews(const Scan* detail, const Scan& coarse, const ApoTexture& apo,
                                             const RenderOptions& options) {
-  if (detail && !detail->isMesh()) return badInput("render: M as points (splats) is not supported yet; give M as a mesh");
   auto scene = makeApoScene(coarse, apo, options.size);
   if (!scene) return scene.error();
-  const gl::Context& context = *scene->context;
-  const gl::Api& api = context.api();
-  const Programs& programs = scene->programs;
-  std::optional<GpuMesh> detailMesh;
-  if (detail) detailMesh = upload(api, *detail);
+  std::optional<GpuGeometry> detailGeometry;
+  if (detail) {
+    auto uploaded = uploadDetail(scene->context->api(), *detail);
+    if (!uploaded) return uploaded.error();
+    detailGeometry = std::move(uploaded).value();
+  }
 
   std::vector<ViewImages> views;
   for (const Camera& camera : standardViews(sceneBox(detail, coarse), options.views)) {
     ViewImages view;
     view.camera = camera;
-    if (detailMesh) {
-      auto reference = renderPass(context, programs.vertexNormals.id(), *detailMesh, camera);
-      if (!reference) return reference.error();
-      view.reference = std::move(reference).value();
-    }
-    auto baseline = renderPass(context, programs.vertexNormals.id(), scene->coarse, camera);
-    if (!baseline) return baseline.error();
-    view.baseline = std::move(baseline).value();
-    useApoProgram(*scene, programs.apo.id(), apo, camera, options.mipmapping);
-    api.Uniform1i(api.GetUniformLocation(programs.apo.id(), "filtering"), options.filtering ? 1 : 0);
-    auto apoPass = renderPass(context, programs.apo.id(), scene->coarse, camera);
-    if (!apoPass) return apoPass.error();
-    view.apo = std::move(apoPass).value();
+    if (detailGeometry) APO_RETURN_IF_ERROR(renderReference(*scene, *detailGeometry, camera, options.timedFrames, view));
+    APO_RETURN_IF_ERROR(renderBaseline(*scene, camera, options.timedFrames, view));
+    APO_RETURN_IF_ERROR(renderApo(*scene, apo, camera, options, view));
     views.push_back(std::move(view));
   }
   return views;
 }
 
+// The texel reads of a walk that lookupTexture describes: the grid entry,
+// then two per level descended (the node's first texel and its kind mask),
+// the first texel of the node it stops at, and the one holding its normal;
+// only the grid entry when the walk finds nothing.
+std::uint32_t expectedFetches(const Lookup& lookup, int completeDepth) {
+  return lookup.found ? 2u * static_cast<std::uint32_t>(lookup.depth - completeDepth) + 3u : 1u;
+}
+
 Result<WalkAgreement> compareWalkWithCpu(const Scan& coarse, const ApoTexture& apo, int size, int views) {
   auto scene = makeApoScene(coarse, apo, size);
   if (!scene) return scene.error();
-  const GLuint program = scene->programs.exactness.id();
+  const GLuint exactness = scene->programs.exactness.id();
+  const GLuint counting = scene->programs.apoCountingFetches.id();
   WalkAgreement agreement;
   for (const Camera& camera : standardViews(boundingBox(coarse.points.positions), views)) {
-    useApoProgram(*scene, program, apo, camera, false);
-    auto pass = renderPass(*scene->context, program, scene->coarse, camera);
+    useApoProgram(*scene, exactness, apo, camera, false, false);
+    auto pass = renderPass(*scene->context, exactness, scene->coarse, camera);
     if (!pass) return pass.error();
+    // The same fragments again, counting texel reads (no mip-mapping, no filtering).
+    useApoProgram(*scene, counting, apo, camera, false, false);
+    auto counts = renderPass(*scene->context, counting, scene->coarse, camera);
+    if (!counts) return counts.error();
     const std::size_t pixels = static_cast<std::size_t>(size) * static_cast<std::size_t>(size);
     for (std::size_t i = 0; i < pixels; ++i) {
       if (!pass->normals.covered(i)) continue;
@@ -264,6 +392,9 @@ Result<WalkAgreement> compareWalkWithCpu(const Scan& coarse, const ApoTexture& a
       const std::uint32_t cpuNode = cpu.found ? cpu.texel : 0xFFFFFFFFu;
       ++agreement.pixels;
       agreement.mismatches += gpuNode == cpuNode ? 0 : 1;
+      const bool counted = counts->normals.covered(i);
+      agreement.fetchMismatches +=
+          counted && static_cast<std::uint32_t>(counts->normals.data[4 * i]) == expectedFetches(cpu, apo.completeDepth) ? 0 : 1;
     }
   }
   return agreement;

@@ -84,6 +84,23 @@ struct RenderOptions {
   int views = 14;
   bool mipmapping = true;   // paper 5.2: stop where a cell is smaller than a pixel
   bool filtering = false;   // paper 5.3: trilinear blend of the 8 neighbouring cells
+  int timedFrames = 5;      // frames timed per pass and view (their median); 0: no timing
+};
+
+// Texel reads per fragment of the APO pass, over the pixels m covers.
+struct FetchCounts {
+  std::uint64_t fragments = 0;
+  double mean = 0.0;
+  std::uint32_t max = 0;
+};
+
+// What each pass of a view costs: the median wall time of one frame (clear,
+// draw, glFinish, so the rasteriser's work is in it) over the timed frames,
+// 0 when not timed or not drawn; and the APO pass's texel reads, counted by
+// a variant of its shader.
+struct ViewCost {
+  double referenceMilliseconds = 0.0, baselineMilliseconds = 0.0, apoMilliseconds = 0.0;
+  FetchCounts apoFetches;
 };
 
 struct PassImages {
@@ -96,10 +113,13 @@ struct ViewImages {
   PassImages reference;  // M; empty when no M was given
   PassImages baseline;   // m with its own vertex normals
   PassImages apo;        // m with the APO
+  ViewCost cost;
 };
 
-// Renders every view's passes. M, when given, must be a triangle mesh (its
-// vertex normals are used, computed if absent).
+// Renders every view's passes. M, when given, is drawn with its interpolated
+// vertex normals (computed if absent) when it is a mesh, as oriented discs of
+// its points' spacing (surfels) with their normals when it is a point cloud;
+// points without normals are BadInput.
 Result<std::vector<ViewImages>> renderViews(const Scan* detail, const Scan& coarse, const ApoTexture& apo,
                                             const RenderOptions& options);
 
@@ -111,17 +131,30 @@ struct PassFigures {
 };
 
 struct ViewFigures {
-  PassFigures apo, baseline;
+  PassFigures apo, baseline;  // empty without a reference pass
+  ViewCost cost;
 };
+
+// Over all views: the mean of the views' median frame times, and the texel
+// reads of every fragment.
+struct RenderCost {
+  double referenceMilliseconds = 0.0, baselineMilliseconds = 0.0, apoMilliseconds = 0.0;
+  FetchCounts apoFetches;
+};
+
+RenderCost totalCost(const std::vector<ViewImages>& views);
 
 struct RenderFigures {
   std::vector<ViewFigures> views;
   AngularStats apo, baseline;  // over the pixels of all views
-  // Per view, the APO's angle per pixel (NaN where not compared), for the heat maps.
+  RenderCost cost;
+  // Per view, the APO's angle per pixel (NaN where not compared), for the
+  // heat maps; empty without a reference pass.
   std::vector<std::vector<float>> apoAngles;
 };
 
-// Needs the reference pass in every view.
+// Needs the reference pass in every view for the angles and image metrics;
+// the cost is measured either way.
 RenderFigures measureViews(const std::vector<ViewImages>& views);
 
 // render.json (format_version 1, docs/render.md).
@@ -133,9 +166,12 @@ Status writeNormalsPfm(const std::filesystem::path& path, const NormalBuffer& no
 
 // The shader's walk against bake/'s lookupTexture: for every pixel m covers,
 // the node the GLSL walk stopped at (read back) and the node the CPU walk
-// reaches from the same unit-cube point (also read back, exact floats).
+// reaches from the same unit-cube point (also read back, exact floats); and
+// the texel reads the fetch-counting variant counted on each pixel against
+// those that walk needs (the grid entry, two per level descended, two at the
+// node it stops at).
 struct WalkAgreement {
-  std::uint64_t pixels = 0, mismatches = 0;
+  std::uint64_t pixels = 0, mismatches = 0, fetchMismatches = 0;
 };
 Result<WalkAgreement> compareWalkWithCpu(const Scan& coarse, const ApoTexture& apo, int size, int views);
 

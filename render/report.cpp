@@ -38,14 +38,52 @@ nlohmann::ordered_json passJson(const PassFigures& f) {
   return {{"angular_error_degrees", anglesJson(f.angles)}, {"image", imageJson(f.image)}};
 }
 
+nlohmann::ordered_json fetchesJson(const FetchCounts& f) {
+  return {{"fragments", f.fragments}, {"mean", f.mean}, {"max", f.max}};
+}
+
+template <class Cost>
+nlohmann::ordered_json costJson(const Cost& c) {
+  return {{"reference_frame_ms", c.referenceMilliseconds},
+          {"baseline_frame_ms", c.baselineMilliseconds},
+          {"apo_frame_ms", c.apoMilliseconds},
+          {"apo_texel_fetches", fetchesJson(c.apoFetches)}};
+}
+
 }  // namespace
+
+RenderCost totalCost(const std::vector<ViewImages>& views) {
+  RenderCost total;
+  double fetchSum = 0.0;
+  for (const ViewImages& view : views) {
+    total.referenceMilliseconds += view.cost.referenceMilliseconds;
+    total.baselineMilliseconds += view.cost.baselineMilliseconds;
+    total.apoMilliseconds += view.cost.apoMilliseconds;
+    total.apoFetches.fragments += view.cost.apoFetches.fragments;
+    total.apoFetches.max = std::max(total.apoFetches.max, view.cost.apoFetches.max);
+    fetchSum += view.cost.apoFetches.mean * static_cast<double>(view.cost.apoFetches.fragments);
+  }
+  if (!views.empty()) {
+    const auto count = static_cast<double>(views.size());
+    total.referenceMilliseconds /= count;
+    total.baselineMilliseconds /= count;
+    total.apoMilliseconds /= count;
+  }
+  if (total.apoFetches.fragments > 0) total.apoFetches.mean = fetchSum / static_cast<double>(total.apoFetches.fragments);
+  return total;
+}
 
 RenderFigures measureViews(const std::vector<ViewImages>& views) {
   RenderFigures figures;
+  figures.cost = totalCost(views);
   std::vector<float> allApo, allBaseline;
   for (const ViewImages& view : views) {
+    if (view.reference.normals.data.empty()) {
+      figures.views.push_back({{}, {}, view.cost});
+      continue;
+    }
     std::vector<float> apo, baseline;
-    figures.views.push_back({figuresOf(view.apo, view.reference, &apo), figuresOf(view.baseline, view.reference, &baseline)});
+    figures.views.push_back({figuresOf(view.apo, view.reference, &apo), figuresOf(view.baseline, view.reference, &baseline), view.cost});
     append(allApo, apo);
     append(allBaseline, baseline);
     figures.apoAngles.push_back(std::move(apo));
@@ -59,16 +97,18 @@ std::string renderReportJson(const RenderFigures& figures, const RenderOptions& 
   nlohmann::ordered_json json;
   json["format_version"] = 1;
   json["options"] = {{"size", options.size}, {"views", options.views}, {"mipmapping", options.mipmapping},
-                     {"filtering", options.filtering}};
+                     {"filtering", options.filtering}, {"timed_frames", options.timedFrames}};
   json["overall"] = {{"apo", anglesJson(figures.apo)},
                      {"baseline", anglesJson(figures.baseline)},
-                     {"baseline_over_apo", figures.apo.mean > 0.0 ? figures.baseline.mean / figures.apo.mean : 0.0}};
+                     {"baseline_over_apo", figures.apo.mean > 0.0 ? figures.baseline.mean / figures.apo.mean : 0.0},
+                     {"cost", costJson(figures.cost)}};
   nlohmann::ordered_json views = nlohmann::ordered_json::array();
   for (std::size_t i = 0; i < figures.views.size(); ++i) {
     nlohmann::ordered_json view = {{"index", i}};
     if (i < cameras.size()) view["eye"] = {cameras[i].eye.x(), cameras[i].eye.y(), cameras[i].eye.z()};
     view["apo"] = passJson(figures.views[i].apo);
     view["baseline"] = passJson(figures.views[i].baseline);
+    view["cost"] = costJson(figures.views[i].cost);
     views.push_back(view);
   }
   json["views"] = views;

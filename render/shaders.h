@@ -21,6 +21,62 @@ void main() {
 }
 )";
 
+// M as points: each point an oriented disc (surfel) of its spacing's radius,
+// flat-shaded with the point's normal. The geometry stage turns each point
+// into a square in its tangent plane; the fragment stage cuts the disc out.
+inline constexpr std::string_view kSplatVertex = R"(#version 450 core
+layout(location = 0) in vec3 position;
+layout(location = 1) in vec3 normal;
+layout(location = 2) in float radius;
+out vec3 splatNormal;
+out float splatRadius;
+void main() {
+  gl_Position = vec4(position, 1.0);
+  splatNormal = normal;
+  splatRadius = radius;
+}
+)";
+
+inline constexpr std::string_view kSplatGeometry = R"(#version 450 core
+layout(points) in;
+layout(triangle_strip, max_vertices = 4) out;
+in vec3 splatNormal[];
+in float splatRadius[];
+uniform mat4 viewProjection;
+out vec3 worldPosition;
+out vec3 worldNormal;
+out vec2 discCoordinates;
+void main() {
+  vec3 centre = gl_in[0].gl_Position.xyz;
+  vec3 n = normalize(splatNormal[0]);
+  vec3 u = normalize(cross(n, abs(n.x) < 0.9 ? vec3(1.0, 0.0, 0.0) : vec3(0.0, 1.0, 0.0)));
+  vec3 v = cross(n, u);
+  for (int corner = 0; corner < 4; ++corner) {
+    vec2 d = vec2((corner & 1) != 0 ? 1.0 : -1.0, (corner & 2) != 0 ? 1.0 : -1.0);
+    worldPosition = centre + splatRadius[0] * (d.x * u + d.y * v);
+    worldNormal = n;
+    discCoordinates = d;
+    gl_Position = viewProjection * vec4(worldPosition, 1.0);
+    EmitVertex();
+  }
+  EndPrimitive();
+}
+)";
+
+inline constexpr std::string_view kSplatFragment = R"(
+in vec3 worldPosition;
+in vec3 worldNormal;
+in vec2 discCoordinates;
+layout(location = 0) out vec4 shaded;
+layout(location = 1) out vec4 normalAndCoverage;
+void main() {
+  if (dot(discCoordinates, discCoordinates) > 1.0) discard;
+  vec3 n = normalize(worldNormal);
+  shaded = shade(n, worldPosition);
+  normalAndCoverage = vec4(n, 1.0);
+}
+)";
+
 // Blinn-Phong under a headlight (the light sits at the eye), grey albedo.
 inline constexpr std::string_view kShading = R"(
 uniform vec3 eye;
@@ -58,7 +114,14 @@ uniform vec3 unitOffset;
 uniform bool mipmapping;
 uniform float pixelsPerWorldUnitAtOne;  // screen pixels covered by one world unit at distance 1
 
-uvec4 texel(uint index) { return texelFetch(apoTexture, ivec2(int(index & widthMask), int(index >> widthShift)), 0); }
+// The fetch-counting variant (COUNT_FETCHES defined) counts every texel read.
+uint fetchCount = 0u;
+uvec4 texel(uint index) {
+#ifdef COUNT_FETCHES
+  ++fetchCount;
+#endif
+  return texelFetch(apoTexture, ivec2(int(index & widthMask), int(index >> widthShift)), 0);
+}
 
 vec2 signNotZero(vec2 v) { return vec2(v.x >= 0.0 ? 1.0 : -1.0, v.y >= 0.0 ? 1.0 : -1.0); }
 
@@ -138,7 +201,9 @@ vec3 filteredNormal(vec3 P, Walk own, float distance) {
 }
 )";
 
-// m shaded with the APO's normal; outside the octree, m's own normal.
+// m shaded with the APO's normal; outside the octree, m's own normal. The
+// fetch-counting variant writes the fragment's texel reads instead of its
+// normal.
 inline constexpr std::string_view kApoFragment = R"(
 in vec3 worldPosition;
 in vec3 worldNormal;
@@ -151,7 +216,11 @@ void main() {
   Walk w = walk(P, 255, distance);
   vec3 n = !w.found ? normalize(worldNormal) : filtering ? filteredNormal(P, w, distance) : normalAt(w);
   shaded = shade(n, worldPosition);
+#ifdef COUNT_FETCHES
+  normalAndCoverage = vec4(float(fetchCount), 0.0, 0.0, 1.0);
+#else
   normalAndCoverage = vec4(n, 1.0);
+#endif
 }
 )";
 

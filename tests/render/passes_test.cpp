@@ -19,8 +19,10 @@ class BumpySphereRender : public ::testing::Test {
     auto bake = bakeApo(*detail_, *coarse_, BakeOptions{});  // the default settings
     ASSERT_TRUE(bake.ok()) << bake.error().message;
     texture_ = new ApoTexture(std::move(bake->texture));
+    octree_ = new Octree(std::move(bake->octree));
   }
   static void TearDownTestSuite() {
+    delete octree_;
     delete texture_;
     delete coarse_;
     delete detail_;
@@ -28,17 +30,21 @@ class BumpySphereRender : public ::testing::Test {
   static Scan* detail_;
   static Scan* coarse_;
   static ApoTexture* texture_;
+  static Octree* octree_;
 };
 
 Scan* BumpySphereRender::detail_ = nullptr;
 Scan* BumpySphereRender::coarse_ = nullptr;
 ApoTexture* BumpySphereRender::texture_ = nullptr;
+Octree* BumpySphereRender::octree_ = nullptr;
 
 TEST_F(BumpySphereRender, GlslWalkAgreesWithTheCpuWalkOnEveryPixel) {
   auto agreement = compareWalkWithCpu(*coarse_, *texture_, 256, 14);
   ASSERT_TRUE(agreement.ok()) << agreement.error().message;
   EXPECT_GT(agreement->pixels, 14u * 14000u);
   EXPECT_EQ(agreement->mismatches, 0u);
+  // The counting shader read exactly the texels that walk needs, everywhere.
+  EXPECT_EQ(agreement->fetchMismatches, 0u);
 }
 
 TEST_F(BumpySphereRender, EveryViewHasItsThreePassesOverTheSameSilhouette) {
@@ -81,6 +87,99 @@ TEST_F(BumpySphereRender, TrilinearFilteringFollowsMsSmoothNormalsCloser) {
   auto filtered = renderViews(detail_, *coarse_, *texture_, options);
   ASSERT_TRUE(flat.ok() && filtered.ok());
   EXPECT_LT(meanApoError(*filtered), 0.6 * meanApoError(*flat));
+}
+
+TEST_F(BumpySphereRender, PointsAsSplatsShowTheSameSurfaceAsTheMesh) {
+  // M as points: the vertices of a finer bumpy sphere with their analytic
+  // normals, no triangles.
+  Scan points = test::BumpySphere().mesh(7);
+  points.triangles.clear();
+  RenderOptions options;
+  options.size = 128;
+  options.views = 6;
+  options.timedFrames = 0;
+  auto fromMesh = renderViews(detail_, *coarse_, *texture_, options);
+  auto fromPoints = renderViews(&points, *coarse_, *texture_, options);
+  ASSERT_TRUE(fromMesh.ok() && fromPoints.ok());
+  for (std::size_t v = 0; v < fromMesh->size(); ++v) {
+    const PassImages& mesh = (*fromMesh)[v].reference;
+    const PassImages& splats = (*fromPoints)[v].reference;
+    const AngularStats angles = angularErrors(splats.normals, mesh.normals);
+    EXPECT_GT(angles.pixels, 3000u);
+    EXPECT_LT(angles.mean, 1.0) << "view " << v;
+    EXPECT_LT(compareImages(splats.shaded, mesh.shaded, splats.normals, mesh.normals).silhouetteMismatch, 0.03) << "view " << v;
+  }
+}
+
+TEST_F(BumpySphereRender, PointsWithoutNormalsAreRefused) {
+  Scan points = test::BumpySphere().mesh(3);
+  points.triangles.clear();
+  points.points.normals.clear();
+  RenderOptions options;
+  options.size = 32;
+  auto views = renderViews(&points, *coarse_, *texture_, options);
+  ASSERT_FALSE(views.ok());
+  EXPECT_EQ(views.error().kind, ErrorKind::BadInput);
+  EXPECT_NE(views.error().message.find("without normals"), std::string::npos);
+}
+
+// Texel reads per fragment over 6 views without timing.
+FetchCounts fetchesOf(const Scan& coarse, const ApoTexture& texture, bool mipmapping, int size = 128) {
+  RenderOptions options;
+  options.size = size;
+  options.views = 6;
+  options.timedFrames = 0;
+  options.mipmapping = mipmapping;
+  auto views = renderViews(nullptr, coarse, texture, options);
+  EXPECT_TRUE(views.ok());
+  return views.ok() ? totalCost(*views).apoFetches : FetchCounts{};
+}
+
+TEST_F(BumpySphereRender, TheCompletionGridSavesTwoReadsPerLevelItReplaces) {
+  // Without the grid the walk starts at the root: every fragment descends
+  // the 5 levels the grid replaces, 2 reads each (paper section 6).
+  auto fromRoot = encodeApo(*octree_, 0, texture_->encoding, texture_->coarseDepth, texture_->maxDepth);
+  ASSERT_TRUE(fromRoot.ok());
+  ASSERT_EQ(texture_->completeDepth, 5);
+  const FetchCounts withGrid = fetchesOf(*coarse_, *texture_, false);
+  const FetchCounts withoutGrid = fetchesOf(*coarse_, *fromRoot, false);
+  ASSERT_EQ(withGrid.fragments, withoutGrid.fragments);
+  EXPECT_GT(withGrid.fragments, 6u * 3000u);
+  EXPECT_NEAR(withoutGrid.mean - withGrid.mean, 10.0, 1e-9);
+  EXPECT_EQ(withoutGrid.max - withGrid.max, 10u);
+}
+
+TEST_F(BumpySphereRender, MipmappingStopsTheWalkEarlierWhenCellsAreSmallerThanPixels) {
+  // A fine bake, with leaves below depth 6. At 32 px the views stand about
+  // 4.1 units from the centre and a pixel spans 0.069 units there; the unit
+  // cube's side is 2.06 units, so a depth-5 cell's diagonal covers 1.6
+  // pixels and a depth-6 cell's 0.8: mip-mapped walks stop at depth 6 at
+  // the latest, 2 (6 - 5) + 3 = 5 reads.
+  BakeOptions fine;
+  fine.error = 0.0005;
+  auto bake = bakeApo(*detail_, *coarse_, fine);
+  ASSERT_TRUE(bake.ok());
+  const FetchCounts mipmapped = fetchesOf(*coarse_, bake->texture, true, 32);
+  const FetchCounts full = fetchesOf(*coarse_, bake->texture, false, 32);
+  ASSERT_EQ(mipmapped.fragments, full.fragments);
+  EXPECT_GT(full.max, 5u);
+  EXPECT_LE(mipmapped.max, 5u);
+  EXPECT_LT(mipmapped.mean, full.mean);
+}
+
+TEST_F(BumpySphereRender, EveryPassOfEveryViewIsTimed) {
+  RenderOptions options;
+  options.size = 64;
+  options.views = 2;
+  options.timedFrames = 3;
+  auto views = renderViews(detail_, *coarse_, *texture_, options);
+  ASSERT_TRUE(views.ok());
+  for (const ViewImages& view : *views) {
+    EXPECT_GT(view.cost.referenceMilliseconds, 0.0);
+    EXPECT_GT(view.cost.baselineMilliseconds, 0.0);
+    EXPECT_GT(view.cost.apoMilliseconds, 0.0);
+    EXPECT_GT(view.cost.apoFetches.fragments, 0u);
+  }
 }
 
 }  // namespace
