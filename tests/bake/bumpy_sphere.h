@@ -7,7 +7,7 @@
 #include "core/geometry.h"
 #include "tests/test_support.h"
 
-#include <array>
+#include <vector>
 #include <cmath>
 
 namespace apo::test {
@@ -20,7 +20,17 @@ inline double degreesBetween(const Vec3f& a, const Vec3f& b) {
 struct BumpySphere {
   float amplitude = 0.04f;
   float width = 0.3f;  // s, in radians of the unit sphere (about)
-  std::array<Vec3f, 4> centres = {Vec3f(0, 0, 1), Vec3f(1, 0, 0), Vec3f(0, -1, 0), Vec3f(-0.6f, 0.48f, -0.64f)};
+  std::vector<Vec3f> centres = {Vec3f(0, 0, 1), Vec3f(1, 0, 0), Vec3f(0, -1, 0), Vec3f(-0.6f, 0.48f, -0.64f)};
+
+  // Fine relief all over: 42 lower, narrower bumps, one towards each vertex
+  // of a once-subdivided icosahedron, so that every view sees many.
+  static BumpySphere allOver() {
+    BumpySphere shape;
+    shape.centres = makeIcosphere(1).points.positions;
+    shape.amplitude = 0.02f;
+    shape.width = 0.15f;
+    return shape;
+  }
 
   float radius(const Vec3f& d) const {
     float r = 1.0f;
