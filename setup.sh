@@ -14,8 +14,9 @@ PACKAGES=(
   libosmesa6-dev
   # command line, formats, logging, hashing
   libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev libstb-dev libssl-dev
-  # tests and benchmarks
-  libgtest-dev libgmock-dev libbenchmark-dev
+  # tests and benchmarks; headless Chromium and its WebDriver for the QA
+  # report's browser test (tests/report/browser_check.py)
+  libgtest-dev libgmock-dev libbenchmark-dev chromium chromium-driver
   # dataset scripts (bunzip2 for the octomap scan)
   bzip2 xz-utils
 )
