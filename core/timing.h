@@ -20,4 +20,10 @@ class Stopwatch {
 // Peak resident set size of this process so far, in bytes (getrusage).
 std::uint64_t peakResidentBytes();
 
+// A stage's own peak: resetPeakResident() before it, peakResidentSinceReset()
+// after (Linux: /proc/self/clear_refs and VmHWM). Where the reset is refused,
+// the peak is the process's since its start.
+void resetPeakResident();
+std::uint64_t peakResidentSinceReset();
+
 }  // namespace apo

@@ -339,7 +339,7 @@ std::vector<Camera> standardViews(const Aabb& box, int count) {
 }
 
 Result<std::vector<ViewImages>> renderViews(const Scan* detail, const Scan& coarse, const ApoTexture& apo,
-                                            const RenderOptions& options) {
+                                            const RenderOptions& options, const std::function<void(int, int)>& onViewDone) {
   auto scene = makeApoScene(coarse, apo, options.size);
   if (!scene) return scene.error();
   std::optional<GpuGeometry> detailGeometry;
@@ -350,13 +350,15 @@ Result<std::vector<ViewImages>> renderViews(const Scan* detail, const Scan& coar
   }
 
   std::vector<ViewImages> views;
-  for (const Camera& camera : standardViews(sceneBox(detail, coarse), options.views)) {
+  const std::vector<Camera> cameras = standardViews(sceneBox(detail, coarse), options.views);
+  for (const Camera& camera : cameras) {
     ViewImages view;
     view.camera = camera;
     if (detailGeometry) APO_RETURN_IF_ERROR(renderReference(*scene, *detailGeometry, camera, options.timedFrames, view));
     APO_RETURN_IF_ERROR(renderBaseline(*scene, camera, options.timedFrames, view));
     APO_RETURN_IF_ERROR(renderApo(*scene, apo, camera, options, view));
     views.push_back(std::move(view));
+    if (onViewDone) onViewDone(static_cast<int>(views.size()), static_cast<int>(cameras.size()));
   }
   return views;
 }

@@ -9,6 +9,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -120,8 +121,10 @@ struct ViewImages {
 // vertex normals (computed if absent) when it is a mesh, as oriented discs of
 // its points' spacing (surfels) with their normals when it is a point cloud;
 // points without normals are BadInput.
+// `onViewDone(done, total)`, when given, is called after each view.
 Result<std::vector<ViewImages>> renderViews(const Scan* detail, const Scan& coarse, const ApoTexture& apo,
-                                            const RenderOptions& options);
+                                            const RenderOptions& options,
+                                            const std::function<void(int, int)>& onViewDone = {});
 
 // ---- Figures of the rendered views (render.json) ---------------------------
 
@@ -159,6 +162,15 @@ RenderFigures measureViews(const std::vector<ViewImages>& views);
 
 // render.json (format_version 1, docs/render.md).
 std::string renderReportJson(const RenderFigures& figures, const RenderOptions& options, const std::vector<Camera>& cameras);
+
+// The heat maps' fixed colour scale, degrees.
+inline constexpr float kHeatMapDegrees = 10.0f;
+
+// Every view's files into `dir` (docs/render.md): viewNN_{reference,
+// baseline,apo}.png and _normals.pfm, viewNN_apo_error.png (the reference
+// and the heat maps only when there is a reference pass), and render.json.
+Status writeRenderOutputs(const std::filesystem::path& dir, const std::vector<ViewImages>& views, const RenderFigures& figures,
+                          const RenderOptions& options);
 
 // A world-space normal buffer as a PFM image (Portable Float Map, RGB,
 // little-endian, rows bottom-up as PFM requires): uncovered pixels are 0 0 0.

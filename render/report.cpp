@@ -3,6 +3,7 @@
 
 #include "core/file_io.h"
 
+#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include <cmath>
@@ -113,6 +114,33 @@ std::string renderReportJson(const RenderFigures& figures, const RenderOptions& 
   }
   json["views"] = views;
   return json.dump(2) + "\n";
+}
+
+namespace {
+
+Status writePass(const std::filesystem::path& dir, const std::string& stem, const PassImages& pass) {
+  APO_RETURN_IF_ERROR(writeImagePng(dir / (stem + ".png"), pass.shaded));
+  return writeNormalsPfm(dir / (stem + "_normals.pfm"), pass.normals);
+}
+
+}  // namespace
+
+Status writeRenderOutputs(const std::filesystem::path& dir, const std::vector<ViewImages>& views, const RenderFigures& figures,
+                          const RenderOptions& options) {
+  const bool withReference = !figures.apoAngles.empty();
+  std::vector<Camera> cameras;
+  for (std::size_t i = 0; i < views.size(); ++i) {
+    const std::string prefix = fmt::format("view{:02d}_", i);
+    if (withReference) APO_RETURN_IF_ERROR(writePass(dir, prefix + "reference", views[i].reference));
+    APO_RETURN_IF_ERROR(writePass(dir, prefix + "baseline", views[i].baseline));
+    APO_RETURN_IF_ERROR(writePass(dir, prefix + "apo", views[i].apo));
+    if (withReference)
+      APO_RETURN_IF_ERROR(writeImagePng(dir / (prefix + "apo_error.png"),
+                                        errorHeatMap(figures.apoAngles[i], views[i].apo.shaded.width,
+                                                     views[i].apo.shaded.height, kHeatMapDegrees)));
+    cameras.push_back(views[i].camera);
+  }
+  return writeFileAtomically(dir / "render.json", renderReportJson(figures, options, cameras));
 }
 
 Status writeNormalsPfm(const std::filesystem::path& path, const NormalBuffer& normals) {
