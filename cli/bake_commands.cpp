@@ -2,17 +2,14 @@
 // `apo lookup` (the APO's normals at given points, without the renderer).
 #include "bake/bake.h"
 #include "cli/command_support.h"
+#include "cli/stage_options.h"
 #include "core/file_io.h"
 #include "ingest/ingest.h"
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
-#include <tbb/global_control.h>
 
-#include <map>
 #include <memory>
-#include <optional>
-#include <thread>
 
 namespace apo::cli {
 namespace fs = std::filesystem;
@@ -22,19 +19,11 @@ struct BakeCommand {
   fs::path detail;
   fs::path coarse;
   fs::path outDir;
-  int threads = 0;
-  BakeOptions options;
+  BakeArguments arguments;
 };
 
-// TBB uses every core unless told otherwise; the output is the same either way.
-std::optional<tbb::global_control> limitThreads(int threads) {
-  if (threads <= 0) return std::nullopt;
-  return std::make_optional<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
-                                                 static_cast<std::size_t>(threads));
-}
-
 int runBake(const BakeCommand& command) {
-  const auto threads = limitThreads(command.threads);
+  const auto threads = limitThreads(command.arguments.threads);
   auto detail = readScan(command.detail);
   if (!detail) return reportFailure(detail.error());
   auto coarse = readScan(command.coarse);
@@ -42,7 +31,7 @@ int runBake(const BakeCommand& command) {
   if (!coarse->isMesh())
     return reportFailure(badInput("{}: the coarse mesh m must be a triangle mesh, the file has only points",
                                   command.coarse.string()));
-  auto bake = bakeApo(*detail, *coarse, command.options);
+  auto bake = bakeApo(*detail, *coarse, command.arguments.options);
   if (!bake) return reportFailure(aboutInput(command.detail, bake.error()));
   if (Status s = writeApoFile(command.outDir / "scan.apo", bake->texture); !s.ok()) return reportFailure(s.error());
   if (Status s = writeApoPng(command.outDir / "texture.png", bake->texture); !s.ok()) return reportFailure(s.error());
@@ -89,23 +78,7 @@ void addBakeCommand(CLI::App& app, int& exitCode) {
       ->required();
   sub->add_option("--coarse", command->coarse, "m: the coarse triangle mesh (m.ply of apo simplify)")->required();
   sub->add_option("-o,--out", command->outDir, "Output folder (scan.apo, texture.png, bake.json)")->required();
-  BakeOptions& o = command->options;
-  sub->add_option("--coarse-depth", o.coarseDepth, "Depth of the initial complete octree around m")->capture_default_str();
-  sub->add_option("--max-depth", o.maxDepth, "Deepest refinement")->capture_default_str();
-  sub->add_option("--error", o.error, "L2,1 threshold for refining a cell (paper: 0.3, 0.1, 0.05)")->capture_default_str();
-  sub->add_option("--max-distance", o.maxDistance,
-                  "Ray reach as a fraction of m's bounding-box diagonal (at least the cell's diagonal)")
-      ->capture_default_str();
-  sub->add_option("--samples", o.samples, "Ray origins per leaf and triangle of m (1: the paper)")->capture_default_str();
-  sub->add_option("--complete-depth", o.completeDepth, "Levels stored as a dense grid of roots (-1: the coarse depth)")
-      ->capture_default_str();
-  const std::map<std::string, NormalEncoding> encodings = {{"xyz8", NormalEncoding::Xyz8},
-                                                           {"oct24", NormalEncoding::Oct24}};
-  sub->add_option("--normal-encoding", o.encoding, "xyz8 (the paper's 8 bits per axis) or oct24 (octahedral)")
-      ->transform(CLI::CheckedTransformer(encodings, CLI::ignore_case))
-      ->default_str(normalEncodingName(o.encoding));
-  sub->add_option("--threads", command->threads, "Worker threads (0: all cores); the output does not depend on it")
-      ->capture_default_str();
+  addBakeOptions(*sub, command->arguments);
   sub->callback([command, &exitCode] { exitCode = guarded([&] { return runBake(*command); }); });
 }
 

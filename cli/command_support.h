@@ -6,9 +6,11 @@
 #include "core/error.h"
 
 #include <spdlog/spdlog.h>
+#include <tbb/global_control.h>
 
 #include <filesystem>
 #include <new>
+#include <optional>
 #include <stdexcept>
 
 namespace apo::cli {
@@ -38,6 +40,13 @@ int guarded(Body&& body) {
   } catch (const std::exception& exception) {
     return reportFailure(internalError("unexpected failure: {}", exception.what()));
   }
+}
+
+// TBB uses every core unless told otherwise; outputs are the same either way.
+inline std::optional<tbb::global_control> limitThreads(int threads) {
+  if (threads <= 0) return std::nullopt;
+  return std::make_optional<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
+                                                 static_cast<std::size_t>(threads));
 }
 
 // A stage's error about an input, prefixed with the input's path.

@@ -1,6 +1,7 @@
 #include "cli/commands.h"
 
 #include "cli/command_support.h"
+#include "cli/stage_options.h"
 
 #include "core/error.h"
 #include "core/timing.h"
@@ -11,7 +12,6 @@
 #include <spdlog/spdlog.h>
 
 #include <filesystem>
-#include <map>
 
 namespace apo::cli {
 namespace fs = std::filesystem;
@@ -27,12 +27,12 @@ Status writeMeshAndReport(const fs::path& meshPath, const Scan& mesh, const fs::
 struct IngestCommand {
   fs::path input;
   fs::path outDir;
-  std::vector<float> sensor;
-  IngestOptions options;
+  IngestArguments arguments;
 };
 
-int runIngest(const IngestCommand& command) {
-  auto result = ingestScan(command.input, command.options);
+int runIngest(IngestCommand command) {
+  command.arguments.apply();
+  auto result = ingestScan(command.input, command.arguments.options);
   if (!result) return reportFailure(result.error());
   if (Status written = writeIngestOutputs(command.outDir, *result); !written.ok()) return reportFailure(written.error());
   const IngestReport& report = result->report;
@@ -85,15 +85,14 @@ int runReconstruct(const ReconstructCommand& command) {
 struct SimplifyCommand {
   fs::path input;
   fs::path outDir;
-  std::string policy = "gh";
-  SimplifyOptions options;
+  SimplifyArguments arguments;
 };
 
 int runSimplify(SimplifyCommand command) {
-  command.options.policy = command.policy == "lt" ? SimplifyPolicy::LindstromTurk : SimplifyPolicy::GarlandHeckbert;
+  command.arguments.apply();
   auto mesh = readScan(command.input);
   if (!mesh) return reportFailure(mesh.error());
-  auto simplified = simplifyMesh(*mesh, command.options);
+  auto simplified = simplifyMesh(*mesh, command.arguments.options);
   if (!simplified) return reportFailure(aboutInput(command.input, simplified.error()));
   if (Status written = writeMeshAndReport(command.outDir / "m.ply", simplified->mesh, command.outDir / "simplify.json",
                                           simplifyReportJson(simplified->report));
@@ -113,35 +112,7 @@ void addReconstructCommand(CLI::App& app, int& exitCode) {
   sub->add_option("input", command->input, "Points with oriented normals (e.g. scan.ply from apo ingest), or a mesh")
       ->required();
   sub->add_option("-o,--out", command->outDir, "Output folder (M.ply, reconstruct.json)")->required();
-  ReconstructOptions& o = command->options;
-  const std::map<std::string, ReconstructionMethod> methods = {{"auto", ReconstructionMethod::Auto},
-                                                               {"poisson", ReconstructionMethod::Poisson},
-                                                               {"advancing-front", ReconstructionMethod::AdvancingFront},
-                                                               {"scale-space", ReconstructionMethod::ScaleSpace}};
-  sub->add_option("--method", o.method,
-                  "auto (Poisson for closed objects, advancing front for open scans), poisson, advancing-front, "
-                  "scale-space")
-      ->transform(CLI::CheckedTransformer(methods, CLI::ignore_case))
-      ->default_str("auto");
-  sub->add_option_function<std::uint64_t>(
-         "--max-points", [&o](const std::uint64_t& value) { o.maxPoints = value; },
-         "Reconstruct from a density-aware subsample above this many points (0: never)")
-      ->default_str(fmt::format("{} for poisson, {} for the others", defaultMaxPoints(ReconstructionMethod::Poisson),
-                                defaultMaxPoints(ReconstructionMethod::AdvancingFront)));
-  sub->add_option("--trim", o.trim, "Poisson: drop triangles farther than this many average spacings from the points")
-      ->capture_default_str();
-  sub->add_option("--radius-ratio", o.radiusRatioBound,
-                  "Advancing front / scale space: drop triangles with a circumradius above this many spacings")
-      ->capture_default_str();
-  sub->add_option("--min-component", o.minComponent, "Drop components below this fraction of the total area")
-      ->capture_default_str();
-  sub->add_option("--spacing-k", o.spacingNeighbours, "Neighbours for the average spacing")->capture_default_str();
-  sub->add_option("--poisson-distance", o.poissonSpacing, "Poisson mesher distance bound in spacings (0: 0.375)")
-      ->capture_default_str();
-  sub->add_option("--poisson-radius", o.poissonRadius, "Poisson triangle size bound in spacings (CGAL's default: 30)")
-      ->capture_default_str();
-  sub->add_option("--scale", o.scaleSpaceScale, "Scale-space smoothing scale in spacings (0: 4)")->capture_default_str();
-  sub->add_option("--seed", o.seed, "Seed of CGAL's random generator")->capture_default_str();
+  addReconstructOptions(*sub, command->options);
   sub->callback([command, &exitCode] { exitCode = guarded([&] { return runReconstruct(*command); }); });
 }
 
@@ -150,11 +121,7 @@ void addSimplifyCommand(CLI::App& app, int& exitCode) {
   CLI::App* sub = app.add_subcommand("simplify", "Simplify a dense mesh M into a coarse mesh m (edge collapse)");
   sub->add_option("input", command->input, "Triangle mesh M")->required();
   sub->add_option("-o,--out", command->outDir, "Output folder (m.ply, simplify.json)")->required();
-  auto* faces = sub->add_option("--faces", command->options.targetFaces, "Target face count")->capture_default_str();
-  sub->add_option("--ratio", command->options.ratio, "Target as a fraction of the input faces, in (0, 1]")->excludes(faces);
-  sub->add_option("--policy", command->policy, "gh: Garland-Heckbert quadrics (the paper's), lt: Lindstrom-Turk")
-      ->check(CLI::IsMember({"gh", "lt"}))
-      ->capture_default_str();
+  addSimplifyOptions(*sub, command->arguments);
   sub->callback([command, &exitCode] { exitCode = guarded([&] { return runSimplify(*command); }); });
 }
 
@@ -163,23 +130,8 @@ void addIngestCommand(CLI::App& app, int& exitCode) {
   CLI::App* sub = app.add_subcommand("ingest", "Read, validate and clean a scan; estimate and orient normals");
   sub->add_option("input", command->input, "Scan file (.ply .pcd .xyz .xyzn .pts .pwn .off .obj .stl)")->required();
   sub->add_option("-o,--out", command->outDir, "Output folder (scan.ply, ingest.json)")->required();
-  IngestOptions& o = command->options;
-  sub->add_flag("!--no-merge-duplicates", o.mergeDuplicates, "Keep exact duplicate points");
-  sub->add_flag("--remove-outliers", o.removeOutliers, "Statistical outlier removal (PCL)");
-  sub->add_option("--outlier-k", o.outlierNeighbours, "Neighbours for outlier statistics")->capture_default_str();
-  sub->add_option("--outlier-std", o.outlierStdDevs, "Keep points within mean + this many std-devs")->capture_default_str();
-  sub->add_option("--voxel", o.voxelSize, "Voxel downsampling size in scan units (0: off)")->capture_default_str();
-  sub->add_flag("!--no-normals", o.estimateNormals, "Do not estimate normals for point clouds without them");
-  sub->add_option("--normal-k", o.normalNeighbours, "Neighbours for normal estimation (0: chosen from the data)")
-      ->capture_default_str();
-  sub->add_flag("--force-normals", o.forceNormalEstimation, "Re-estimate normals even when the file has them");
-  sub->add_option("--sensor", command->sensor,
-                   "Scanner position X Y Z: estimated normals face it (overrides the file's viewpoint)")
-      ->expected(3);
-  sub->callback([command, &exitCode] {
-    if (!command->sensor.empty()) command->options.sensorPosition = Vec3f(command->sensor[0], command->sensor[1], command->sensor[2]);
-    exitCode = guarded([&] { return runIngest(*command); });
-  });
+  addIngestOptions(*sub, command->arguments);
+  sub->callback([command, &exitCode] { exitCode = guarded([&] { return runIngest(*command); }); });
 }
 
 void addSimulateScanCommand(CLI::App& app, int& exitCode) {

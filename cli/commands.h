@@ -19,5 +19,7 @@ void addSimplifyCommand(CLI::App& app, int& exitCode);
 void addBakeCommand(CLI::App& app, int& exitCode);
 void addLookupCommand(CLI::App& app, int& exitCode);
 void addRenderCommand(CLI::App& app, int& exitCode);
+void addRunCommand(CLI::App& app, int& exitCode);
+void addBatchCommand(CLI::App& app, int& exitCode);
 
 }  // namespace apo::cli

@@ -32,6 +32,8 @@ int main(int argc, char** argv) {
   addBakeCommand(app, exitCode);
   addLookupCommand(app, exitCode);
   addRenderCommand(app, exitCode);
+  addRunCommand(app, exitCode);
+  addBatchCommand(app, exitCode);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& error) {

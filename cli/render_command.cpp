@@ -2,6 +2,7 @@
 // view: shaded PNGs, normal buffers (PFM), error heat maps and render.json.
 #include "bake/bake.h"
 #include "cli/command_support.h"
+#include "cli/stage_options.h"
 #include "core/file_io.h"
 #include "ingest/ingest.h"
 #include "render/render.h"
@@ -16,14 +17,10 @@ namespace apo::cli {
 namespace fs = std::filesystem;
 namespace {
 
-// The heat maps' fixed colour scale, degrees.
-constexpr float kHeatMapDegrees = 10.0f;
-
 struct RenderCommand {
   fs::path apo, coarse, detail;
   fs::path outDir;
-  bool noMipmapping = false;
-  RenderOptions options;
+  RenderArguments arguments;
 };
 
 // The .apo must have been baked around this m: its unit cube is m's.
@@ -41,29 +38,9 @@ Status checkTransformMatches(const fs::path& apoPath, const ApoTexture& texture,
   return okStatus();
 }
 
-Status writePass(const fs::path& dir, const std::string& stem, const PassImages& pass) {
-  APO_RETURN_IF_ERROR(writeImagePng(dir / (stem + ".png"), pass.shaded));
-  return writeNormalsPfm(dir / (stem + "_normals.pfm"), pass.normals);
-}
-
-// The reference and the heat maps exist only when M was given.
-Status writeViews(const fs::path& dir, const std::vector<ViewImages>& views, const RenderFigures& figures) {
-  const bool withReference = !figures.apoAngles.empty();
-  for (std::size_t i = 0; i < views.size(); ++i) {
-    const std::string prefix = fmt::format("view{:02d}_", i);
-    if (withReference) APO_RETURN_IF_ERROR(writePass(dir, prefix + "reference", views[i].reference));
-    APO_RETURN_IF_ERROR(writePass(dir, prefix + "baseline", views[i].baseline));
-    APO_RETURN_IF_ERROR(writePass(dir, prefix + "apo", views[i].apo));
-    if (withReference)
-      APO_RETURN_IF_ERROR(writeImagePng(dir / (prefix + "apo_error.png"),
-                                        errorHeatMap(figures.apoAngles[i], views[i].apo.shaded.width,
-                                                     views[i].apo.shaded.height, kHeatMapDegrees)));
-  }
-  return okStatus();
-}
-
 int runRender(RenderCommand command) {
-  command.options.mipmapping = !command.noMipmapping;
+  command.arguments.apply();
+  const RenderOptions& options = command.arguments.options;
   auto texture = readApoFile(command.apo);
   if (!texture) return reportFailure(texture.error());
   auto coarse = readScan(command.coarse);
@@ -76,22 +53,17 @@ int runRender(RenderCommand command) {
     if (!read) return reportFailure(read.error());
     detail = std::make_unique<Scan>(std::move(read).value());
   }
-  auto views = renderViews(detail.get(), *coarse, *texture, command.options);
+  auto views = renderViews(detail.get(), *coarse, *texture, options);
   if (!views) return reportFailure(aboutInput(command.detail.empty() ? command.coarse : command.detail, views.error()));
-  std::vector<Camera> cameras;
-  for (const ViewImages& view : *views) cameras.push_back(view.camera);
   const RenderFigures figures = measureViews(*views);
-  if (Status s = writeViews(command.outDir, *views, figures); !s.ok()) return reportFailure(s.error());
-  if (Status s = writeFileAtomically(command.outDir / "render.json", renderReportJson(figures, command.options, cameras));
-      !s.ok())
-    return reportFailure(s.error());
+  if (Status s = writeRenderOutputs(command.outDir, *views, figures, options); !s.ok()) return reportFailure(s.error());
   if (detail)
     spdlog::info("render: {} views at {}px: APO {:.3f} deg mean from M's normals, m alone {:.3f} (x{:.2f}) -> {}",
-                 views->size(), command.options.size, figures.apo.mean, figures.baseline.mean,
+                 views->size(), options.size, figures.apo.mean, figures.baseline.mean,
                  figures.apo.mean > 0 ? figures.baseline.mean / figures.apo.mean : 0.0, command.outDir.string());
   else
-    spdlog::info("render: {} views at {}px -> {}", views->size(), command.options.size, command.outDir.string());
-  if (command.options.timedFrames > 0)
+    spdlog::info("render: {} views at {}px -> {}", views->size(), options.size, command.outDir.string());
+  if (options.timedFrames > 0)
     spdlog::info("render: median frame {:.1f} ms with the APO ({:.1f} texel reads per fragment, at most {}), {:.1f} ms for m "
                  "alone{}",
                  figures.cost.apoMilliseconds, figures.cost.apoFetches.mean, figures.cost.apoFetches.max,
@@ -109,15 +81,7 @@ void addRenderCommand(CLI::App& app, int& exitCode) {
   sub->add_option("--coarse", command->coarse, "m, the mesh the APO was baked around")->required();
   sub->add_option("--detail", command->detail, "M, the dense mesh or the points: the reference the metrics compare with");
   sub->add_option("-o,--out", command->outDir, "Output folder (PNGs, normal buffers, heat maps, render.json)")->required();
-  sub->add_option("--size", command->options.size, "Image side in pixels")->capture_default_str();
-  sub->add_option("--views", command->options.views, "Views: the 6 axis directions, then the 8 cube diagonals")
-      ->check(CLI::Range(1, 14))
-      ->capture_default_str();
-  sub->add_flag("--no-mipmap", command->noMipmapping, "Walk to the leaves even where cells are smaller than a pixel");
-  sub->add_flag("--filter", command->options.filtering, "Trilinear filtering of the 8 neighbouring cells (paper 5.3)");
-  sub->add_option("--frames", command->options.timedFrames, "Frames timed per pass and view (median); 0: no timing")
-      ->check(CLI::Range(0, 1000))
-      ->capture_default_str();
+  addRenderOptions(*sub, command->arguments);
   sub->callback([command, &exitCode] { exitCode = guarded([&] { return runRender(*command); }); });
 }
 

@@ -1,0 +1,106 @@
+#include "cli/stage_options.h"
+
+#include <fmt/format.h>
+
+#include <map>
+
+namespace apo::cli {
+
+void IngestArguments::apply() {
+  if (sensor.size() == 3) options.sensorPosition = Vec3f(sensor[0], sensor[1], sensor[2]);
+}
+
+void SimplifyArguments::apply() {
+  options.policy = policy == "lt" ? SimplifyPolicy::LindstromTurk : SimplifyPolicy::GarlandHeckbert;
+}
+
+void RenderArguments::apply() { options.mipmapping = !noMipmapping; }
+
+void addIngestOptions(CLI::App& app, IngestArguments& arguments) {
+  IngestOptions& o = arguments.options;
+  app.add_flag("!--no-merge-duplicates", o.mergeDuplicates, "Keep exact duplicate points");
+  app.add_flag("--remove-outliers", o.removeOutliers, "Statistical outlier removal (PCL)");
+  app.add_option("--outlier-k", o.outlierNeighbours, "Neighbours for outlier statistics")->capture_default_str();
+  app.add_option("--outlier-std", o.outlierStdDevs, "Keep points within mean + this many std-devs")->capture_default_str();
+  app.add_option("--voxel", o.voxelSize, "Voxel downsampling size in scan units (0: off)")->capture_default_str();
+  app.add_flag("!--no-normals", o.estimateNormals, "Do not estimate normals for point clouds without them");
+  app.add_option("--normal-k", o.normalNeighbours, "Neighbours for normal estimation (0: chosen from the data)")
+      ->capture_default_str();
+  app.add_flag("--force-normals", o.forceNormalEstimation, "Re-estimate normals even when the file has them");
+  app.add_option("--sensor", arguments.sensor, "Scanner position X Y Z: estimated normals face it (overrides the file's viewpoint)")
+      ->expected(3);
+}
+
+void addReconstructOptions(CLI::App& app, ReconstructOptions& o) {
+  const std::map<std::string, ReconstructionMethod> methods = {{"auto", ReconstructionMethod::Auto},
+                                                               {"poisson", ReconstructionMethod::Poisson},
+                                                               {"advancing-front", ReconstructionMethod::AdvancingFront},
+                                                               {"scale-space", ReconstructionMethod::ScaleSpace}};
+  app.add_option("--method", o.method,
+                 "auto (Poisson for closed objects, advancing front for open scans), poisson, advancing-front, "
+                 "scale-space")
+      ->transform(CLI::CheckedTransformer(methods, CLI::ignore_case))
+      ->default_str("auto");
+  app.add_option_function<std::uint64_t>(
+         "--max-points", [&o](const std::uint64_t& value) { o.maxPoints = value; },
+         "Reconstruct from a density-aware subsample above this many points (0: never)")
+      ->default_str(fmt::format("{} for poisson, {} for the others", defaultMaxPoints(ReconstructionMethod::Poisson),
+                                defaultMaxPoints(ReconstructionMethod::AdvancingFront)));
+  app.add_option("--trim", o.trim, "Poisson: drop triangles farther than this many average spacings from the points")
+      ->capture_default_str();
+  app.add_option("--radius-ratio", o.radiusRatioBound,
+                 "Advancing front / scale space: drop triangles with a circumradius above this many spacings")
+      ->capture_default_str();
+  app.add_option("--min-component", o.minComponent, "Drop components below this fraction of the total area")
+      ->capture_default_str();
+  app.add_option("--spacing-k", o.spacingNeighbours, "Neighbours for the average spacing")->capture_default_str();
+  app.add_option("--poisson-distance", o.poissonSpacing, "Poisson mesher distance bound in spacings (0: 0.375)")
+      ->capture_default_str();
+  app.add_option("--poisson-radius", o.poissonRadius, "Poisson triangle size bound in spacings (CGAL's default: 30)")
+      ->capture_default_str();
+  app.add_option("--scale", o.scaleSpaceScale, "Scale-space smoothing scale in spacings (0: 4)")->capture_default_str();
+  app.add_option("--seed", o.seed, "Seed of CGAL's random generator")->capture_default_str();
+}
+
+void addSimplifyOptions(CLI::App& app, SimplifyArguments& arguments) {
+  auto* faces = app.add_option("--faces", arguments.options.targetFaces, "Target face count")->capture_default_str();
+  app.add_option("--ratio", arguments.options.ratio, "Target as a fraction of the input faces, in (0, 1]")->excludes(faces);
+  app.add_option("--policy", arguments.policy, "gh: Garland-Heckbert quadrics (the paper's), lt: Lindstrom-Turk")
+      ->check(CLI::IsMember({"gh", "lt"}))
+      ->capture_default_str();
+}
+
+void addBakeOptions(CLI::App& app, BakeArguments& arguments) {
+  BakeOptions& o = arguments.options;
+  app.add_option("--coarse-depth", o.coarseDepth, "Depth of the initial complete octree around m")->capture_default_str();
+  app.add_option("--max-depth", o.maxDepth, "Deepest refinement")->capture_default_str();
+  app.add_option("--error", o.error, "L2,1 threshold for refining a cell (paper: 0.3, 0.1, 0.05)")->capture_default_str();
+  app.add_option("--max-distance", o.maxDistance,
+                 "Ray reach as a fraction of m's bounding-box diagonal (at least the cell's diagonal)")
+      ->capture_default_str();
+  app.add_option("--samples", o.samples, "Ray origins per leaf and triangle of m (1: the paper)")->capture_default_str();
+  app.add_option("--complete-depth", o.completeDepth, "Levels stored as a dense grid of roots (-1: the coarse depth)")
+      ->capture_default_str();
+  const std::map<std::string, NormalEncoding> encodings = {{"xyz8", NormalEncoding::Xyz8},
+                                                           {"oct24", NormalEncoding::Oct24}};
+  app.add_option("--normal-encoding", o.encoding, "xyz8 (the paper's 8 bits per axis) or oct24 (octahedral)")
+      ->transform(CLI::CheckedTransformer(encodings, CLI::ignore_case))
+      ->default_str(normalEncodingName(o.encoding));
+  app.add_option("--threads", arguments.threads, "Worker threads (0: all cores); the output does not depend on it")
+      ->capture_default_str();
+}
+
+void addRenderOptions(CLI::App& app, RenderArguments& arguments) {
+  RenderOptions& o = arguments.options;
+  app.add_option("--size", o.size, "Image side in pixels")->capture_default_str();
+  app.add_option("--views", o.views, "Views: the 6 axis directions, then the 8 cube diagonals")
+      ->check(CLI::Range(1, 14))
+      ->capture_default_str();
+  app.add_flag("--no-mipmap", arguments.noMipmapping, "Walk to the leaves even where cells are smaller than a pixel");
+  app.add_flag("--filter", o.filtering, "Trilinear filtering of the 8 neighbouring cells (paper 5.3)");
+  app.add_option("--frames", o.timedFrames, "Frames timed per pass and view (median); 0: no timing")
+      ->check(CLI::Range(0, 1000))
+      ->capture_default_str();
+}
+
+}  // namespace apo::cli

@@ -1,0 +1,52 @@
+// Each stage's command-line options, registered on any CLI11 app or option
+// group: the stage's own subcommand and `apo run` / `apo batch` (one group
+// per stage) share them, so their names, defaults and help never drift.
+#pragma once
+
+#include "bake/bake.h"
+#include "ingest/ingest.h"
+#include "reconstruct/reconstruct.h"
+#include "render/render.h"
+
+#include <CLI/CLI.hpp>
+
+#include <string>
+#include <vector>
+
+namespace apo::cli {
+
+// What the command line fills in beyond the stages' option structs; apply()
+// moves it into them once parsing is done.
+struct IngestArguments {
+  IngestOptions options;
+  std::vector<float> sensor;  // X Y Z, or empty
+  void apply();
+};
+
+struct SimplifyArguments {
+  SimplifyOptions options;
+  std::string policy = "gh";
+  void apply();
+};
+
+struct BakeArguments {
+  BakeOptions options;
+  int threads = 0;  // 0: every core
+};
+
+struct RenderArguments {
+  RenderOptions options;
+  bool noMipmapping = false;
+  void apply();
+};
+
+// A flag takes no value on the command line (CLI11 gives it expected(0)).
+inline bool isFlag(const CLI::Option& option) { return option.get_items_expected_max() == 0; }
+
+void addIngestOptions(CLI::App& app, IngestArguments& arguments);
+void addReconstructOptions(CLI::App& app, ReconstructOptions& options);
+void addSimplifyOptions(CLI::App& app, SimplifyArguments& arguments);
+void addBakeOptions(CLI::App& app, BakeArguments& arguments);
+void addRenderOptions(CLI::App& app, RenderArguments& arguments);
+
+}  // namespace apo::cli

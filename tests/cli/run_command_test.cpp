@@ -1,0 +1,209 @@
+// `apo run` and `apo batch` through the binary: OUTDIR's files and manifest,
+// the config file, bad scans, and a batch that is killed and resumed.
+#include "core/file_io.h"
+#include "ingest/ingest.h"
+#include "tests/bake/bumpy_sphere.h"
+#include "tests/test_support.h"
+
+#include <fmt/format.h>
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <fstream>
+
+namespace apo {
+namespace {
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+using ::testing::Not;
+
+// Small, quick settings: every stage runs in well under a second.
+constexpr const char* kQuick = "--faces 300 --size 64 --views 2 --frames 1";
+
+nlohmann::json readJson(const fs::path& path) {
+  std::ifstream in(path);
+  return nlohmann::json::parse(in);
+}
+
+std::string fileBytes(const fs::path& path) {
+  auto bytes = readFileBytes(path);
+  return bytes.ok() ? *bytes : std::string("<missing: ") + path.string() + ">";
+}
+
+test::CommandResult apo(const std::string& arguments) {
+  return test::runCommand(fmt::format("{} {}", test::apoExecutable().string(), arguments));
+}
+
+// A bumpy sphere mesh of 5,120 faces: the input is already M.
+fs::path writeMeshScan(const fs::path& path) {
+  EXPECT_TRUE(writePly(path, test::BumpySphere().mesh(4)).ok());
+  return path;
+}
+
+TEST(RunCommand, AMeshScanGoesThroughEveryStageIntoOneFolder) {
+  const fs::path dir = test::freshTempDir();
+  const fs::path scan = writeMeshScan(dir / "sphere.ply");
+  const auto result = apo(fmt::format("run '{}' -o '{}' {} --filter", scan.string(), (dir / "out").string(), kQuick));
+  ASSERT_EQ(result.exitCode, 0) << result.output;
+  for (const char* file : {"m.ply", "scan.apo", "texture.png", "report.html", "manifest.json", "render/view00_apo.png",
+                           "render/view01_reference.png", "render/view01_apo_error.png", "render/render.json"})
+    EXPECT_TRUE(fs::exists(dir / "out" / file)) << file;
+  EXPECT_FALSE(fs::exists(dir / "out" / "M.ply"));  // the input is M
+
+  const nlohmann::json manifest = readJson(dir / "out" / "manifest.json");
+  EXPECT_EQ(manifest["status"], "succeeded");
+  EXPECT_EQ(manifest["input"]["sha256"], *sha256OfFile(scan));
+  EXPECT_EQ(manifest["input"]["bytes"], fs::file_size(scan));
+  const std::vector<std::string> expected = {"succeeded", "skipped", "succeeded", "succeeded", "succeeded", "succeeded"};
+  ASSERT_EQ(manifest["stages"].size(), expected.size());
+  for (std::size_t i = 0; i < expected.size(); ++i) {
+    EXPECT_EQ(manifest["stages"][i]["status"], expected[i]) << manifest["stages"][i]["name"];
+    if (expected[i] == "succeeded") EXPECT_GT(manifest["stages"][i]["peak_memory_bytes"].get<std::uint64_t>(), 0u);
+  }
+  EXPECT_EQ(manifest["options"]["simplify"]["faces"], "300");
+  EXPECT_EQ(manifest["options"]["render"]["size"], "64");
+  EXPECT_EQ(manifest["options"]["bake"]["error"], "0.05");  // defaults are recorded too
+  EXPECT_EQ(manifest["results"]["simplify"]["faces"]["out"], 300);
+  // Filtered (unfiltered, on this smooth sphere, the APO is about as close as m's own normals: docs/render.md).
+  const auto& overall = manifest["results"]["render"]["overall"];
+  EXPECT_LT(overall["apo"]["mean"].get<double>(), overall["baseline"]["mean"].get<double>());
+  EXPECT_THAT(fileBytes(dir / "out" / "report.html"), HasSubstr("sphere.ply"));
+}
+
+TEST(RunCommand, PointsAreReconstructedAndCanBeMThemselves) {
+  const fs::path dir = test::freshTempDir();
+  const fs::path mesh = writeMeshScan(dir / "sphere.ply");
+  const auto simulated = apo(fmt::format("simulate-scan '{}' -o '{}' --views 6 --rays 80", mesh.string(), (dir / "points.ply").string()));
+  ASSERT_EQ(simulated.exitCode, 0) << simulated.output;
+  const auto result = apo(fmt::format("run '{}' -o '{}' {} --detail-source points --json", (dir / "points.ply").string(),
+                                      (dir / "out").string(), kQuick));
+  ASSERT_EQ(result.exitCode, 0) << result.output;
+  EXPECT_TRUE(fs::exists(dir / "out" / "M.ply"));
+  const nlohmann::json manifest = readJson(dir / "out" / "manifest.json");
+  EXPECT_EQ(manifest["stages"][1]["status"], "succeeded");
+  EXPECT_EQ(manifest["options"]["detail_source"], "points");
+  EXPECT_EQ(manifest["results"]["bake"]["detail"]["kind"], "points");
+  // --json: the same manifest on stdout.
+  EXPECT_THAT(result.output, HasSubstr(fmt::format("\"sha256\": \"{}\"", manifest["input"]["sha256"].get<std::string>())));
+}
+
+TEST(RunCommand, AConfigFileHoldsTheSameOptions) {
+  const fs::path dir = test::freshTempDir();
+  const fs::path scan = writeMeshScan(dir / "sphere.ply");
+  test::writeBytes(dir / "apo.toml", "faces = 200\nsize = 48\nviews = 1\nframes = 0\nerror = 0.1\n");
+  const auto result = apo(fmt::format("run '{}' -o '{}' --config '{}'", scan.string(), (dir / "out").string(),
+                                      (dir / "apo.toml").string()));
+  ASSERT_EQ(result.exitCode, 0) << result.output;
+  const nlohmann::json manifest = readJson(dir / "out" / "manifest.json");
+  EXPECT_EQ(manifest["results"]["simplify"]["faces"]["out"], 200);
+  EXPECT_EQ(manifest["options"]["bake"]["error"], "0.1");
+  EXPECT_EQ(manifest["results"]["render"]["views"].size(), 1u);
+}
+
+TEST(RunCommand, ABrokenScanFailsAtIngestWithItsReasonInTheManifest) {
+  const fs::path dir = test::freshTempDir();
+  test::writeBytes(dir / "broken.ply", "ply\nformat ascii 1.0\nelement vertex 1000000000\nproperty float x\nend_header\n1 2 3\n");
+  const auto result = apo(fmt::format("run '{}' -o '{}' {}", (dir / "broken.ply").string(), (dir / "out").string(), kQuick));
+  EXPECT_EQ(result.exitCode, 2) << result.output;
+  EXPECT_THAT(result.output, HasSubstr("broken.ply"));
+  const nlohmann::json manifest = readJson(dir / "out" / "manifest.json");
+  EXPECT_EQ(manifest["status"], "failed");
+  EXPECT_EQ(manifest["error"]["stage"], "ingest");
+  EXPECT_THAT(manifest["error"]["message"].get<std::string>(), HasSubstr("broken.ply"));
+  EXPECT_EQ(manifest["stages"][0]["status"], "failed");
+  EXPECT_EQ(manifest["stages"][2]["status"], "not_run");
+  EXPECT_FALSE(fs::exists(dir / "out" / "report.html"));
+}
+
+TEST(RunCommand, AMissingScanIsBadInput) {
+  const fs::path dir = test::freshTempDir();
+  const auto result = apo(fmt::format("run '{}' -o '{}'", (dir / "nothing.ply").string(), (dir / "out").string()));
+  EXPECT_EQ(result.exitCode, 2) << result.output;
+  EXPECT_THAT(result.output, HasSubstr("nothing.ply"));
+}
+
+// ---- apo batch ---------------------------------------------------------------
+
+// Two good scans (one in a subfolder, one with a hostile name), two broken
+// files and a file that is not a scan.
+fs::path makeScanFolder(const fs::path& dir) {
+  const fs::path scans = dir / "scans";
+  writeMeshScan(scans / "a.ply");
+  EXPECT_TRUE(writePly(scans / "lab 2" / "<img src=x onerror=alert(1)>.ply", test::makeTorus(1.0f, 0.35f, 48, 24)).ok());
+  test::writeBytes(scans / "lab 2" / "empty.xyz", "");
+  test::writeBytes(scans / "truncated.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 100\nproperty float x\n"
+                                             "property float y\nproperty float z\nend_header\n\x01\x02");
+  test::writeBytes(scans / "notes.txt", "not a scan");
+  return scans;
+}
+
+// The outputs that must not depend on how often the batch was interrupted.
+std::vector<std::string> lastingOutputs(const fs::path& out) {
+  std::vector<std::string> files;
+  for (const char* scan : {"a.ply", "lab 2/<img src=x onerror=alert(1)>.ply"})
+    for (const char* file : {"m.ply", "scan.apo", "texture.png"}) {
+      auto digest = sha256OfFile(out / scan / file);
+      files.push_back(digest.ok() ? *digest : "missing: " + (out / scan / file).string());
+    }
+  return files;
+}
+
+TEST(BatchCommand, BadScansAreReportedAndTheRestSucceeds) {
+  const fs::path dir = test::freshTempDir();
+  const fs::path scans = makeScanFolder(dir);
+  const auto result = apo(fmt::format("batch '{}' -o '{}' -j 2 {}", scans.string(), (dir / "out").string(), kQuick));
+  EXPECT_EQ(result.exitCode, 2) << result.output;  // not every scan succeeded
+  EXPECT_THAT(result.output, HasSubstr("FAILED at ingest"));
+  const nlohmann::json summary = readJson(dir / "out" / "summary.json");
+  EXPECT_EQ(summary["scans"], 4);  // notes.txt is not a scan
+  EXPECT_EQ(summary["succeeded"], 2);
+  EXPECT_EQ(summary["failed"], 2);
+  EXPECT_EQ(readJson(dir / "out" / "truncated.ply" / "manifest.json")["error"]["stage"], "ingest");
+  EXPECT_TRUE(fs::exists(dir / "out" / "lab 2" / "<img src=x onerror=alert(1)>.ply" / "report.html"));
+  const std::string index = fileBytes(dir / "out" / "index.html");
+  EXPECT_THAT(index, Not(HasSubstr("<img src=x onerror")));
+  EXPECT_THAT(index, HasSubstr("truncated.ply"));
+
+  // Rerun: nothing to redo for the two that succeeded; the failed are retried.
+  const auto again = apo(fmt::format("batch '{}' -o '{}' -j 2 {}", scans.string(), (dir / "out").string(), kQuick));
+  EXPECT_EQ(again.exitCode, 2) << again.output;
+  EXPECT_EQ(readJson(dir / "out" / "summary.json")["skipped_up_to_date"], 2);
+
+  // Other options: everything is redone.
+  const auto other = apo(fmt::format("batch '{}' -o '{}' -j 2 {} --error 0.1", scans.string(), (dir / "out").string(), kQuick));
+  EXPECT_EQ(readJson(dir / "out" / "summary.json")["skipped_up_to_date"], 0) << other.output;
+}
+
+TEST(BatchCommand, KilledAtAnyMomentAndRerunItEndsAsIfNeverInterrupted) {
+  const fs::path dir = test::freshTempDir();
+  const fs::path scans = makeScanFolder(dir);
+  const std::string batch = fmt::format("batch '{}' -o '{}' -j 2 {}", scans.string(), "{}", kQuick);
+  const auto clean = apo(fmt::format(fmt::runtime(batch), (dir / "clean").string()));
+  ASSERT_EQ(clean.exitCode, 2) << clean.output;
+
+  // SIGKILL after various delays, each rerun continuing what the last left.
+  const fs::path out = dir / "killed";
+  for (const char* delay : {"0.3", "0.9", "0.2", "1.7", "0.6"})
+    test::runCommand(fmt::format("timeout -s KILL {} {} {}", delay, test::apoExecutable().string(),
+                                 fmt::format(fmt::runtime(batch), out.string())));
+  const auto finished = apo(fmt::format(fmt::runtime(batch), out.string()));
+  EXPECT_EQ(finished.exitCode, 2) << finished.output;
+  const nlohmann::json summary = readJson(out / "summary.json");
+  EXPECT_EQ(summary["succeeded"].get<int>() + summary["skipped_up_to_date"].get<int>(), 2);
+  EXPECT_EQ(lastingOutputs(out), lastingOutputs(dir / "clean"));
+  for (const char* scan : {"a.ply", "lab 2/<img src=x onerror=alert(1)>.ply"})
+    EXPECT_EQ(readJson(out / scan / "manifest.json")["status"], "succeeded") << scan;
+}
+
+TEST(BatchCommand, TwoBatchesCannotWriteTheSameFolder) {
+  const fs::path dir = test::freshTempDir();
+  const fs::path scans = makeScanFolder(dir);
+  const std::string command = fmt::format("{} batch '{}' -o '{}' {}", test::apoExecutable().string(), scans.string(),
+                                          (dir / "out").string(), kQuick);
+  const auto both = test::runCommand(fmt::format("{{ {} & sleep 0.3; {}; wait; }} 2>&1", command, command));
+  EXPECT_THAT(both.output, HasSubstr("another apo batch is writing to this folder"));
+}
+
+}  // namespace
+}  // namespace apo
