@@ -3,6 +3,7 @@
 // failed run's "not run" sections, the charts' bars, the batch index rows,
 // and no exception on manifests of unexpected shape.
 #include "cli/report_html.h"
+#include "render/render.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -14,6 +15,9 @@
 
 namespace apo::cli {
 namespace {
+
+// The legend the pages draw is the scale the heat maps were coloured with.
+static_assert(kReportHeatMapDegrees == kHeatMapDegrees);
 
 using Json = nlohmann::json;
 using ::testing::HasSubstr;
