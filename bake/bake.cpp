@@ -181,7 +181,15 @@ void countNodes(const Octree& octree, BakeReport& report) {
 
 }  // namespace
 
-Result<Bake> bakeWith(const DetailSurface& detail, const Scan& coarse, const BakeOptions& options) {
+// Rough shares of a bake's time (measured on the bumpy bunny): setup 5%,
+// octree build 55%, sampling 35%, encoding 5%; only for progress.
+constexpr double kBuildStart = 0.05, kSamplingStart = 0.6, kEncodingStart = 0.95;
+
+Result<Bake> bakeWith(const DetailSurface& detail, const Scan& coarse, const BakeOptions& options,
+                      const BakeProgress& onProgress) {
+  const auto progress = [&](double fraction) {
+    if (onProgress) onProgress(fraction);
+  };
   APO_RETURN_IF_ERROR(validateOptions(options));
   APO_RETURN_IF_ERROR(validateInputs(detail, coarse));
   Stopwatch total;
@@ -204,6 +212,7 @@ Result<Bake> bakeWith(const DetailSurface& detail, const Scan& coarse, const Bak
   {
     const octree::DetailPrimitives primitives = detailForErrorMetric(detail, **coarseCaster, reach, transform);
     report.seconds.setup += phase.seconds();
+    progress(kBuildStart);
     phase = Stopwatch();
     built = octree::buildOctree(coarseUnit, primitives, {options.coarseDepth, options.maxDepth, options.error});
   }
@@ -211,10 +220,14 @@ Result<Bake> bakeWith(const DetailSurface& detail, const Scan& coarse, const Bak
   report.seconds.build = phase.seconds();
   spdlog::info("bake: octree of {} nodes built in {:.2f} s", built.octree.nodes.size(), report.seconds.build);
 
+  progress(kSamplingStart);
   phase = Stopwatch();
   const sampling::SamplingSettings sampling{options.samples, reach};
   const sampling::SampleCounts counts = sampling::sampleNormalField(
-      built, {&coarseUnit, &coarse.points.positions, &coarseNormals}, detail, sampling);
+      built, {&coarseUnit, &coarse.points.positions, &coarseNormals}, detail, sampling,
+      [&](std::size_t done, std::size_t total) {
+        progress(kSamplingStart + (kEncodingStart - kSamplingStart) * static_cast<double>(done) / static_cast<double>(total));
+      });
   report.rays = counts.rays;
   report.hits = counts.hits;
   report.fallbacks = counts.fallbacks;
@@ -237,10 +250,11 @@ Result<Bake> bakeWith(const DetailSurface& detail, const Scan& coarse, const Bak
   report.textureBytes = bake.texture.texels.size();
   report.totalSeconds = total.seconds();
   report.peakMemoryBytes = peakResidentBytes();
+  progress(1.0);
   return bake;
 }
 
-Result<Bake> bakeApo(const Scan& detail, const Scan& coarse, const BakeOptions& options) {
+Result<Bake> bakeApo(const Scan& detail, const Scan& coarse, const BakeOptions& options, const BakeProgress& onProgress) {
   APO_RETURN_IF_ERROR(validateOptions(options));
   Stopwatch setup;
   Scan M = detail;
@@ -264,7 +278,7 @@ Result<Bake> bakeApo(const Scan& detail, const Scan& coarse, const BakeOptions& 
   const double setupSeconds = setup.seconds();
   spdlog::info("bake: Embree BVH over {} {} in {:.2f} s", M.isMesh() ? M.triangles.size() : M.points.size(),
                M.isMesh() ? "triangles" : "points", setupSeconds);
-  auto bake = bakeWith(surface, coarse, options);
+  auto bake = bakeWith(surface, coarse, options, onProgress);
   if (!bake) return bake;
   bake->report.seconds.setup += setupSeconds;
   bake->report.totalSeconds += setupSeconds;

@@ -15,6 +15,7 @@
 #include <array>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -181,10 +182,16 @@ struct DetailSurface {
   std::vector<float> pointAreas;  // points only: each point's share of the surface
 };
 
+// Fraction of a bake done, in [0, 1], called as it goes (from worker threads
+// too, so it must be thread-safe); it does not change the result.
+using BakeProgress = std::function<void(double)>;
+
 // The algorithm against given seams (tests use brute-force ones).
-Result<Bake> bakeWith(const DetailSurface& detail, const Scan& coarse, const BakeOptions& options);
+Result<Bake> bakeWith(const DetailSurface& detail, const Scan& coarse, const BakeOptions& options,
+                      const BakeProgress& onProgress = {});
 // The product: Embree and FLANN seams built for `detail`, then bakeWith.
-Result<Bake> bakeApo(const Scan& detail, const Scan& coarse, const BakeOptions& options);
+Result<Bake> bakeApo(const Scan& detail, const Scan& coarse, const BakeOptions& options,
+                     const BakeProgress& onProgress = {});
 
 // Production seams, one adapter file each.
 Result<std::unique_ptr<ClosestPointFinder>> makeFlannClosestPoint(const Scan& detail);

@@ -7,6 +7,8 @@
 
 #include <tbb/parallel_for.h>
 
+#include <atomic>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -208,7 +210,8 @@ Eigen::Vector3f closestPointBarycentrics(const Vec3f& p, const Vec3f& a, const V
 }
 
 SampleCounts sampleNormalField(octree::BuiltOctree& built, const CoarseFrames& coarse, const DetailSurface& detail,
-                               const SamplingSettings& settings) {
+                               const SamplingSettings& settings,
+                               const std::function<void(std::size_t, std::size_t)>& onChunkDone) {
   Octree& octree = built.octree;
   std::vector<std::uint32_t> leaves;
   for (std::uint32_t n = 0; n < octree.nodes.size(); ++n)
@@ -218,6 +221,7 @@ SampleCounts sampleNormalField(octree::BuiltOctree& built, const CoarseFrames& c
 
   const std::size_t chunks = (leaves.size() + kLeavesPerChunk - 1) / kLeavesPerChunk;
   std::vector<SampleCounts> counts(chunks);
+  std::atomic<std::size_t> chunksDone{0};
   tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t chunk) {
     const std::size_t begin = chunk * kLeavesPerChunk, end = std::min(leaves.size(), begin + kLeavesPerChunk);
     std::vector<Sample> samples;
@@ -259,6 +263,7 @@ SampleCounts sampleNormalField(octree::BuiltOctree& built, const CoarseFrames& c
       leaf.normal = sum.squaredNorm() > 0.0 ? Vec3f(sum.normalized().cast<float>()) : Vec3f(Vec3f::UnitZ());
       leaf.weight = areas[i - begin] * unitToWorldArea;
     }
+    if (onChunkDone) onChunkDone(++chunksDone, chunks);
   });
   averageInternalNodes(octree);
   SampleCounts total;

@@ -29,9 +29,11 @@ struct CoarseFrames {
 // rays from m's triangles in the cell) and weight (m's area in the cell),
 // then every internal node's, bottom-up, as the weighted mean of its
 // children. Parallel over leaves; the result does not depend on the thread
-// count.
+// count. `onChunkDone(done, total)`, when given, is called from the worker
+// threads as chunks of leaves finish.
 SampleCounts sampleNormalField(octree::BuiltOctree& built, const CoarseFrames& coarse, const DetailSurface& detail,
-                               const SamplingSettings& settings);
+                               const SamplingSettings& settings,
+                               const std::function<void(std::size_t, std::size_t)>& onChunkDone = {});
 
 // Closest point of triangle abc to p, as barycentric weights of a, b, c
 // (Ericson, Real-Time Collision Detection, 5.1.5).

@@ -22,6 +22,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cctype>
 #include <cstring>
 #include <map>
@@ -39,6 +40,7 @@ const std::set<std::string> kScanExtensions = {".ply", ".pcd", ".xyz", ".xyzn", 
 struct BatchCommand {
   fs::path scanDir, outDir;
   int jobs = 1;
+  double scanTimeout = 0.0;  // seconds; 0: none
   StageArguments arguments;
 };
 
@@ -105,7 +107,7 @@ std::vector<std::string> childArguments(const CLI::App& batch, const ScanJob& jo
   for (const CLI::Option* option : batch.get_options()) {
     const std::string name = option->get_name();
     if (option->count() == 0 || name.rfind("--", 0) != 0 || name == "--out" || name == "--jobs" || name == "--threads" ||
-        name == "--config" || name == "--help")
+        name == "--config" || name == "--help" || name == "--scan-timeout")
       continue;
     arguments.push_back(name);
     if (!isFlag(*option))
@@ -136,14 +138,15 @@ Result<pid_t> startChild(const std::vector<std::string>& arguments, const fs::pa
   _exit(127);
 }
 
-std::string describeExit(int status) {
+std::string describeExit(int status, bool timedOut, double timeout) {
+  if (timedOut) return fmt::format("the scan took longer than --scan-timeout {} s and was stopped", timeout);
   if (WIFSIGNALED(status)) return fmt::format("the worker was killed by signal {} ({})", WTERMSIG(status), strsignal(WTERMSIG(status)));
   return fmt::format("the worker exited with code {}", WEXITSTATUS(status));
 }
 
 // A worker that ended without recording its end (a crash, a kill): its
 // manifest records the failure at the first stage that did not finish.
-void recordAbnormalEnd(const ScanJob& job, int status) {
+void recordAbnormalEnd(const ScanJob& job, const std::string& reason) {
   std::optional<Json> manifest = readManifest(job.outDir);
   if (!manifest) {
     manifest = Json{{"format_version", kManifestFormatVersion},
@@ -160,7 +163,7 @@ void recordAbnormalEnd(const ScanJob& job, int status) {
         break;
       }
   (*manifest)["status"] = "failed";
-  (*manifest)["error"] = {{"stage", stage}, {"message", describeExit(status) + " (see run.log)"}};
+  (*manifest)["error"] = {{"stage", stage}, {"message", reason + " (see run.log)"}};
   if (Status s = writeFileAtomically(job.outDir / "manifest.json", manifest->dump(2) + "\n"); !s.ok())
     spdlog::warn("{}", s.error().message);
 }
@@ -202,7 +205,12 @@ int runBatch(CLI::App& app, const BatchCommand& command) {
                workers, threadsEach, command.outDir.string());
 
   Tally tally;
-  std::map<pid_t, const ScanJob*> running;
+  struct Worker {
+    const ScanJob* job;
+    Stopwatch started;
+    bool timedOut = false;
+  };
+  std::map<pid_t, Worker> running;
   std::size_t next = 0, done = 0;
   const auto finish = [&](const ScanJob& job, const std::string& outcome) {
     ++done;
@@ -225,18 +233,28 @@ int runBatch(CLI::App& app, const BatchCommand& command) {
       if (error) return reportFailure(internalError("{}: cannot create: {}", job.outDir.string(), error.message()));
       auto pid = startChild(childArguments(app, job, threadsEach), job.outDir / "run.log");
       if (!pid) return reportFailure(pid.error());
-      running[*pid] = &job;
+      running.emplace(*pid, Worker{&job, Stopwatch(), false});
     }
     if (running.empty()) continue;
     int status = 0;
-    const pid_t pid = waitpid(-1, &status, 0);
+    const pid_t pid = waitpid(-1, &status, WNOHANG);
     if (pid < 0) return reportFailure(internalError("waiting for the workers: {}", std::strerror(errno)));
+    if (pid == 0) {  // none ended: stop those over the time limit, then look again shortly
+      for (auto& [workerPid, worker] : running)
+        if (command.scanTimeout > 0.0 && !worker.timedOut && worker.started.seconds() > command.scanTimeout) {
+          kill(workerPid, SIGKILL);
+          worker.timedOut = true;
+        }
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+      continue;
+    }
     const auto it = running.find(pid);
     if (it == running.end()) continue;
-    const ScanJob& job = *it->second;
+    const ScanJob& job = *it->second.job;
+    const bool timedOut = it->second.timedOut;
     running.erase(it);
-    const bool exitedCleanly = WIFEXITED(status);
-    if (!exitedCleanly || WEXITSTATUS(status) != 0) recordAbnormalEnd(job, status);
+    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
+      recordAbnormalEnd(job, describeExit(status, timedOut, command.scanTimeout));
     const std::optional<Json> manifest = readManifest(job.outDir);
     if (manifest && manifest->value("status", "") == "succeeded") {
       ++tally.succeeded;
@@ -282,6 +300,10 @@ void addBatchCommand(CLI::App& app, int& exitCode) {
       ->required();
   sub->add_option("-j,--jobs", command->jobs, "Scans processed at a time (the cores are shared among them)")
       ->check(CLI::Range(1, 64))
+      ->capture_default_str();
+  sub->add_option("--scan-timeout", command->scanTimeout,
+                  "Stop a scan that runs longer than this many seconds and record it as failed (0: no limit)")
+      ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   addStageOptionGroups(*sub, command->arguments);
   sub->callback([sub, command, &exitCode] { exitCode = guarded([&] { return runBatch(*sub, *command); }); });

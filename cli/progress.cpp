@@ -18,6 +18,7 @@ void Progress::startStage(const std::string& name) {
   ++stage_;
   name_ = name;
   fraction_ = -1.0;
+  printedTenth_ = -1;
   started_ = std::chrono::steady_clock::now();
   if (style_ == ProgressStyle::LogLines) spdlog::info("[{}/{}] {}: started", stage_, stageCount_, name_);
   if (style_ != ProgressStyle::LiveLine) return;
@@ -32,7 +33,15 @@ void Progress::startStage(const std::string& name) {
 
 void Progress::setFraction(double fraction) {
   fraction_ = fraction;
-  if (style_ == ProgressStyle::LogLines) spdlog::info("[{}/{}] {}: {:.0f}%", stage_, stageCount_, name_, 100.0 * fraction);
+  if (style_ != ProgressStyle::LogLines) return;
+  // A log line per tenth reached, however often the stage reports.
+  const int tenth = static_cast<int>(10.0 * fraction);
+  int printed = printedTenth_.load();
+  while (tenth > printed)
+    if (printedTenth_.compare_exchange_weak(printed, tenth)) {
+      spdlog::info("[{}/{}] {}: {}%", stage_, stageCount_, name_, 10 * tenth);
+      break;
+    }
 }
 
 void Progress::finishStage(const std::string& outcome) {

@@ -26,7 +26,7 @@ class Progress {
   Progress& operator=(const Progress&) = delete;
 
   void startStage(const std::string& name);
-  // Fraction done of the current stage, in [0, 1].
+  // Fraction done of the current stage, in [0, 1]; callable from any thread.
   void setFraction(double fraction);
   void finishStage(const std::string& outcome);  // "12.3 s, 1.2 GiB"; "failed", ...
 
@@ -40,6 +40,7 @@ class Progress {
   std::string name_;
   std::chrono::steady_clock::time_point started_;
   std::atomic<double> fraction_{-1.0};
+  std::atomic<int> printedTenth_{-1};
   std::mutex mutex_;
   std::condition_variable wake_;
   bool stopping_ = false;

@@ -162,7 +162,7 @@ class Run {
   }
 
   Status bake(const Scan& detail) {
-    auto baked = bakeApo(detail, data_.coarse, settings_.bake);
+    auto baked = bakeApo(detail, data_.coarse, settings_.bake, [&](double fraction) { progress_.setFraction(fraction); });
     if (!baked) return aboutInput(settings_.input, baked.error());
     data_.texture = std::move(baked->texture);
     APO_RETURN_IF_ERROR(writeApoFile(settings_.outDir / "scan.apo", data_.texture));

@@ -196,6 +196,18 @@ TEST(BatchCommand, KilledAtAnyMomentAndRerunItEndsAsIfNeverInterrupted) {
     EXPECT_EQ(readJson(out / scan / "manifest.json")["status"], "succeeded") << scan;
 }
 
+TEST(BatchCommand, AScanOverItsTimeLimitIsStoppedAndRecorded) {
+  const fs::path dir = test::freshTempDir();
+  writeMeshScan(dir / "scans" / "a.ply");
+  // Every run takes longer than 50 ms (ingest, simplify, bake and render of a 5,120-face mesh).
+  const auto result = apo(fmt::format("batch '{}' -o '{}' --scan-timeout 0.05 {}", (dir / "scans").string(),
+                                      (dir / "out").string(), kQuick));
+  EXPECT_EQ(result.exitCode, 2) << result.output;
+  const nlohmann::json manifest = readJson(dir / "out" / "a.ply" / "manifest.json");
+  EXPECT_EQ(manifest["status"], "failed");
+  EXPECT_THAT(manifest["error"]["message"].get<std::string>(), HasSubstr("longer than --scan-timeout"));
+}
+
 TEST(BatchCommand, TwoBatchesCannotWriteTheSameFolder) {
   const fs::path dir = test::freshTempDir();
   const fs::path scans = makeScanFolder(dir);
