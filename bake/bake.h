@@ -114,6 +114,12 @@ struct Lookup {
 // from the masks, until a leaf, a missing child (the last node's normal), or
 // `maxDepth`. `unitPoint` is in unit-cube coordinates.
 Lookup lookupTexture(const ApoTexture& texture, const Vec3f& unitPoint, int maxDepth = 255);
+// Paper 5.3, as the shader's filtering does it: the normals of the 8 cells
+// around P at the depth of P's own cell, blended trilinearly; each is found by
+// its own walk (to that depth at most); a neighbour outside the octree, or
+// whose walk stops more than one level above P's cell, takes P's own normal.
+// Not found when P itself is outside.
+Lookup lookupTextureFiltered(const ApoTexture& texture, const Vec3f& unitPoint);
 // The same walk in the in-memory octree, from the root (for tests).
 Lookup lookupOctree(const Octree& octree, const Vec3f& unitPoint, int maxDepth = 255);
 
@@ -144,7 +150,7 @@ struct BakeOptions {
   double error = 0.05;   // L2,1 threshold, in units of M's mean primitive area (docs/bake.md)
   // Rays reach max(maxDistance x m's bbox diagonal, the cell's diagonal).
   double maxDistance = 0.01;
-  int samples = 4;           // stratified ray origins per (leaf, triangle of m); 1: the paper
+  int samples = 1;           // ray origins per (leaf, triangle of m): 1, the paper's closest point to the centre; K > 1 stratified
   int completeDepth = -1;    // -1: coarseDepth
   NormalEncoding encoding = NormalEncoding::Oct24;
 };

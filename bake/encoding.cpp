@@ -594,6 +594,35 @@ Lookup lookupTexture(const ApoTexture& texture, const Vec3f& unitPoint, int maxD
   }
 }
 
+// A neighbour's normal enters the blend when its walk reaches P's depth or
+// stops one level above; a coarser leaf's mean describes a region too far
+// from P (measured: docs/benchmarks.md, "Filtering"), a missing one nothing.
+bool isFilterNeighbour(const Lookup& neighbour, int ownDepth) {
+  return neighbour.found && neighbour.depth + 1 >= ownDepth;
+}
+
+Lookup lookupTextureFiltered(const ApoTexture& texture, const Vec3f& unitPoint) {
+  const Lookup own = lookupTexture(texture, unitPoint);
+  if (!own.found) return own;
+  // The shader's float operations: lattice coordinates of P among the cell
+  // centres of its depth, the 8 corners around it, trilinear weights.
+  const float width = 1.0f / static_cast<float>(1u << own.depth);
+  const Eigen::Array3f lattice = unitPoint.array() / width - 0.5f;
+  const Eigen::Array3f base = lattice.floor();
+  const Eigen::Array3f t = lattice - base;
+  Vec3f sum = Vec3f::Zero();
+  for (int corner = 0; corner < 8; ++corner) {
+    const Eigen::Array3f c((corner >> 2) & 1, (corner >> 1) & 1, corner & 1);
+    const Eigen::Array3f weight3 = (1.0f - t) * (1.0f - c) + t * c;
+    const Vec3f at = ((base + c + 0.5f) * width).matrix();
+    const Lookup neighbour = lookupTexture(texture, at, own.depth);
+    sum += weight3.prod() * (isFilterNeighbour(neighbour, own.depth) ? neighbour.normal : own.normal);
+  }
+  Lookup filtered = own;
+  filtered.normal = sum.normalized();
+  return filtered;
+}
+
 Lookup lookupOctree(const Octree& octree, const Vec3f& unitPoint, int maxDepth) {
   if (!insideUnitCube(unitPoint) || octree.nodes.empty()) return {};
   // The same float walk as lookupTexture, from the root; Lookup::texel holds

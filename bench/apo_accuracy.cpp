@@ -86,7 +86,7 @@ int run(int argc, char** argv) {
   auto closest = apo::makeFlannClosestPoint(*detail);
   if (!closest) return 2;
   const std::size_t count = argc > 4 ? std::strtoull(argv[4], nullptr, 10) : 200000;
-  std::vector<double> apoErrors, bareErrors;
+  std::vector<double> apoErrors, filteredErrors, bareErrors;
   std::size_t outside = 0;
   for (const SurfaceSample& s : sampleByArea(*coarse, count)) {
     const apo::Triangle& t = coarse->triangles[s.triangle];
@@ -98,11 +98,14 @@ int run(int argc, char** argv) {
     const apo::Lookup found = apo::lookupTexture(*texture, texture->transform.toUnit(point));
     if (!found.found) ++outside;
     apoErrors.push_back(found.found ? degreesBetween(found.normal, truth) : 180.0);
+    const apo::Lookup filtered = apo::lookupTextureFiltered(*texture, texture->transform.toUnit(point));
+    filteredErrors.push_back(filtered.found ? degreesBetween(filtered.normal, truth) : 180.0);
     bareErrors.push_back(degreesBetween(bare, truth));
   }
-  const Stats a = statsOf(apoErrors), b = statsOf(bareErrors);
+  const Stats a = statsOf(apoErrors), f = statsOf(filteredErrors), b = statsOf(bareErrors);
   fmt::print("samples {} outside {}\n", count, outside);
   fmt::print("apo  mean {:.3f} median {:.3f} p95 {:.3f} deg\n", a.mean, a.median, a.p95);
+  fmt::print("apo filtered mean {:.3f} median {:.3f} p95 {:.3f} deg\n", f.mean, f.median, f.p95);
   fmt::print("bare mean {:.3f} median {:.3f} p95 {:.3f} deg\n", b.mean, b.median, b.p95);
   return 0;
 }

@@ -78,7 +78,7 @@ void addBakeOptions(CLI::App& app, BakeArguments& arguments) {
   app.add_option("--max-distance", o.maxDistance,
                  "Ray reach as a fraction of m's bounding-box diagonal (at least the cell's diagonal)")
       ->capture_default_str();
-  app.add_option("--samples", o.samples, "Ray origins per leaf and triangle of m (1: the paper)")->capture_default_str();
+  app.add_option("--samples", o.samples, "Ray origins per leaf and triangle of m (1: the paper's, from the closest point to the cell centre; K > 1: stratified over the triangle in the cell)")->capture_default_str();
   app.add_option("--complete-depth", o.completeDepth, "Levels stored as a dense grid of roots (-1: the coarse depth)")
       ->capture_default_str();
   const std::map<std::string, NormalEncoding> encodings = {{"xyz8", NormalEncoding::Xyz8},

@@ -38,6 +38,9 @@ class EmbreeCaster final : public RayCaster {
     // Medium (binned SAH) builds 1M triangles several times faster than high
     // (spatial splits) and traces our short rays about as fast.
     rtcSetSceneBuildQuality(scene_, RTC_BUILD_QUALITY_MEDIUM);
+    // Watertight triangle tests: rays from m's edges and vertices meet M's
+    // shared edges there (the paper's closest-point origins often lie on them).
+    rtcSetSceneFlags(scene_, RTC_SCENE_FLAG_ROBUST);
     RTCGeometry geometry = rtcNewGeometry(device_, type);
     if (!geometry) return internalError("Embree: cannot create a geometry: {}", lastError_);
     if (!fill(geometry)) {

@@ -38,19 +38,6 @@ void checkImage(const Image& image) {
   APO_CHECK_OP(image.rgba.size(), ==, 4 * pixelCount(image.width, image.height));
 }
 
-// atan2(|a x b|, a . b) rather than acos of the normalised dot product: it is
-// scale-invariant (no normalisation), lies in [0, 180] with no clamp that
-// could hide a NaN, and keeps its relative precision at any angle, where
-// acos near 1 has an absolute error of about 1e-16 / sin(angle) radians.
-// A covered pixel without a usable normal (zero length or not finite) is a
-// broken pass: it counts as the worst error, 180 degrees, so it cannot make
-// the result look better.
-double angleDegrees(const Vec3f& testNormal, const Vec3f& referenceNormal) {
-  const Eigen::Vector3d a = testNormal.cast<double>(), b = referenceNormal.cast<double>();
-  if (!a.allFinite() || !b.allFinite() || a.squaredNorm() == 0.0 || b.squaredNorm() == 0.0) return 180.0;
-  return std::atan2(a.cross(b).norm(), a.dot(b)) * (180.0 / std::numbers::pi);
-}
-
 double luminance(const Image& image, std::size_t pixel) {
   const std::uint8_t* rgb = &image.rgba[4 * pixel];
   return 0.299 * rgb[0] + 0.587 * rgb[1] + 0.114 * rgb[2];
@@ -153,7 +140,25 @@ std::array<std::uint8_t, 4> viridis(double t) {
   return rgba;
 }
 
+double psnrOf(double meanSquaredError) {
+  return meanSquaredError == 0.0 ? std::numeric_limits<double>::infinity()
+                                 : 10.0 * std::log10(kMaxByte * kMaxByte / meanSquaredError);
+}
+
 }  // namespace
+
+// atan2(|a x b|, a . b) rather than acos of the normalised dot product: it is
+// scale-invariant (no normalisation), lies in [0, 180] with no clamp that
+// could hide a NaN, and keeps its relative precision at any angle, where
+// acos near 1 has an absolute error of about 1e-16 / sin(angle) radians.
+// A covered pixel without a usable normal (zero length or not finite) is a
+// broken pass: it counts as the worst error, 180 degrees, so it cannot make
+// the result look better.
+double angleDegrees(const Vec3f& testNormal, const Vec3f& referenceNormal) {
+  const Eigen::Vector3d a = testNormal.cast<double>(), b = referenceNormal.cast<double>();
+  if (!a.allFinite() || !b.allFinite() || a.squaredNorm() == 0.0 || b.squaredNorm() == 0.0) return 180.0;
+  return std::atan2(a.cross(b).norm(), a.dot(b)) * (180.0 / std::numbers::pi);
+}
 
 AngularStats statsOfAngles(std::vector<float> degrees) {
   // NaN marks an uncompared pixel (angularErrors' perPixel): not an angle.
@@ -206,31 +211,61 @@ ImageMetrics compareImages(const Image& test, const Image& reference, const Norm
   const std::size_t pixels = pixelCount(width, height);
   std::vector<std::uint8_t> either(pixels, 0);
   std::uint64_t eitherCount = 0, exactlyOneCount = 0;
-  double absoluteSum = 0.0, squaredSum = 0.0;
+  double absoluteSum = 0.0, squaredSum = 0.0, insideAbsoluteSum = 0.0;
   for (std::size_t p = 0; p < pixels; ++p) {
     const bool inTest = testCoverage.covered(p), inReference = referenceCoverage.covered(p);
     if (!inTest && !inReference) continue;
     either[p] = 1;
     ++eitherCount;
     if (inTest != inReference) ++exactlyOneCount;
+    double pixelAbsolute = 0.0;
     for (int c = 0; c < 3; ++c) {
       const int difference = int{test.rgba[4 * p + c]} - int{reference.rgba[4 * p + c]};
-      absoluteSum += std::abs(difference);
+      pixelAbsolute += std::abs(difference);
       squaredSum += difference * difference;
     }
+    absoluteSum += pixelAbsolute;
+    if (inTest == inReference) insideAbsoluteSum += pixelAbsolute;
   }
 
   ImageMetrics metrics;
   metrics.pixels = eitherCount;
   const double samples = 3.0 * static_cast<double>(eitherCount);
-  const double meanSquaredError = eitherCount == 0 ? 0.0 : squaredSum / samples;
+  metrics.meanSquaredError = eitherCount == 0 ? 0.0 : squaredSum / samples;
   metrics.meanAbsoluteError = eitherCount == 0 ? 0.0 : absoluteSum / samples;
-  metrics.psnr = meanSquaredError == 0.0 ? std::numeric_limits<double>::infinity()
-                                         : 10.0 * std::log10(kMaxByte * kMaxByte / meanSquaredError);
+  metrics.psnr = psnrOf(metrics.meanSquaredError);
+  metrics.insidePixels = eitherCount - exactlyOneCount;
+  metrics.meanAbsoluteErrorInside =
+      metrics.insidePixels == 0 ? 0.0 : insideAbsoluteSum / (3.0 * static_cast<double>(metrics.insidePixels));
   metrics.ssim = meanSsim(test, reference, either);
   metrics.silhouetteMismatch =
       eitherCount == 0 ? 0.0 : static_cast<double>(exactlyOneCount) / static_cast<double>(eitherCount);
   return metrics;
+}
+
+ImageMetrics poolImageMetrics(const std::vector<ImageMetrics>& views) {
+  ImageMetrics pooled;
+  double absoluteSum = 0.0, squaredSum = 0.0, mismatched = 0.0, insideSum = 0.0, ssimSum = 0.0;
+  for (const ImageMetrics& v : views) {
+    const auto pixels = static_cast<double>(v.pixels), inside = static_cast<double>(v.insidePixels);
+    pooled.pixels += v.pixels;
+    pooled.insidePixels += v.insidePixels;
+    absoluteSum += v.meanAbsoluteError * pixels;
+    squaredSum += v.meanSquaredError * pixels;
+    mismatched += v.silhouetteMismatch * pixels;
+    insideSum += v.meanAbsoluteErrorInside * inside;
+    ssimSum += v.ssim;
+  }
+  const auto pixels = static_cast<double>(pooled.pixels);
+  if (pooled.pixels > 0) {
+    pooled.meanAbsoluteError = absoluteSum / pixels;
+    pooled.meanSquaredError = squaredSum / pixels;
+    pooled.silhouetteMismatch = mismatched / pixels;
+  }
+  if (pooled.insidePixels > 0) pooled.meanAbsoluteErrorInside = insideSum / static_cast<double>(pooled.insidePixels);
+  pooled.psnr = psnrOf(pooled.meanSquaredError);
+  pooled.ssim = views.empty() ? 1.0 : ssimSum / static_cast<double>(views.size());
+  return pooled;
 }
 
 Image errorHeatMap(const std::vector<float>& degrees, int width, int height, float maxDegrees) {

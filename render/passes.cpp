@@ -385,9 +385,18 @@ Result<WalkAgreement> compareWalkWithCpu(const Scan& coarse, const ApoTexture& a
     useApoProgram(*scene, counting, apo, camera, false, false);
     auto counts = renderPass(*scene->context, counting, scene->coarse, camera);
     if (!counts) return counts.error();
+    // And the filtered normals (paper 5.3), without mip-mapping.
+    const GLuint apoProgram = scene->programs.apo.id();
+    useApoProgram(*scene, apoProgram, apo, camera, false, true);
+    auto filtered = renderPass(*scene->context, apoProgram, scene->coarse, camera);
+    if (!filtered) return filtered.error();
     const std::size_t pixels = static_cast<std::size_t>(size) * static_cast<std::size_t>(size);
     for (std::size_t i = 0; i < pixels; ++i) {
       if (!pass->normals.covered(i)) continue;
+      const Lookup cpuFiltered = lookupTextureFiltered(apo, pass->normals.normal(i));
+      if (cpuFiltered.found && filtered->normals.covered(i))
+        agreement.maxFilteredDegrees =
+            std::max(agreement.maxFilteredDegrees, angleDegrees(cpuFiltered.normal, filtered->normals.normal(i)));
       const std::uint8_t* b = &pass->shaded.rgba[4 * i];
       const std::uint32_t gpuNode = b[0] | (b[1] << 8) | (b[2] << 16) | (static_cast<std::uint32_t>(b[3]) << 24);
       const Lookup cpu = lookupTexture(apo, pass->normals.normal(i));

@@ -41,6 +41,9 @@ struct AngularStats {
   double mean = 0.0, median = 0.0, p95 = 0.0, max = 0.0;  // degrees
 };
 
+// Angle in degrees between two normals (any length), by atan2; 180 when
+// either is zero or not finite.
+double angleDegrees(const Vec3f& testNormal, const Vec3f& referenceNormal);
 // Angle in degrees between the two buffers' normals on every pixel covered by
 // both; `perPixel` (optional) receives it per pixel, NaN where not compared.
 AngularStats angularErrors(const NormalBuffer& test, const NormalBuffer& reference, std::vector<float>* perPixel = nullptr);
@@ -53,13 +56,21 @@ AngularStats statsOfAngles(std::vector<float> degrees);
 struct ImageMetrics {
   std::uint64_t pixels = 0;         // covered by either
   double meanAbsoluteError = 0.0;   // out of 255
+  double meanSquaredError = 0.0;    // out of 255^2
   double psnr = 0.0;                // dB; +infinity for identical images
   double ssim = 0.0;                // of the luminance (Wang et al. 2004, 8x8 windows, stride 4)
   double silhouetteMismatch = 0.0;  // pixels covered by exactly one / pixels covered by either
+  // Over the pixels both cover: the part of the error shading can change
+  // (the rest is m's silhouette, which no normal field moves).
+  std::uint64_t insidePixels = 0;
+  double meanAbsoluteErrorInside = 0.0;
 };
 
 ImageMetrics compareImages(const Image& test, const Image& reference, const NormalBuffer& testCoverage,
                            const NormalBuffer& referenceCoverage);
+// Several views' metrics as one: MAE, MSE (so PSNR) and silhouette mismatch
+// over all their pixels together, SSIM the mean over the views.
+ImageMetrics poolImageMetrics(const std::vector<ImageMetrics>& views);
 
 // Angular error as colours on a fixed scale (0 to `maxDegrees`, clamped),
 // uncompared pixels transparent black.
@@ -150,6 +161,7 @@ RenderCost totalCost(const std::vector<ViewImages>& views);
 struct RenderFigures {
   std::vector<ViewFigures> views;
   AngularStats apo, baseline;  // over the pixels of all views
+  ImageMetrics apoImage, baselineImage;  // pooled over the views
   RenderCost cost;
   // Per view, the APO's angle per pixel (NaN where not compared), for the
   // heat maps; empty without a reference pass.
@@ -181,9 +193,12 @@ Status writeNormalsPfm(const std::filesystem::path& path, const NormalBuffer& no
 // reaches from the same unit-cube point (also read back, exact floats); and
 // the texel reads the fetch-counting variant counted on each pixel against
 // those that walk needs (the grid entry, two per level descended, two at the
-// node it stops at).
+// node it stops at); and the largest angle between the filtered normal the
+// shader draws (no mip-mapping) and bake/'s lookupTextureFiltered (float
+// rounding apart, they blend the same 8 normals with the same weights).
 struct WalkAgreement {
   std::uint64_t pixels = 0, mismatches = 0, fetchMismatches = 0;
+  double maxFilteredDegrees = 0.0;
 };
 Result<WalkAgreement> compareWalkWithCpu(const Scan& coarse, const ApoTexture& apo, int size, int views);
 

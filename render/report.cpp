@@ -32,6 +32,8 @@ nlohmann::ordered_json imageJson(const ImageMetrics& m) {
   json["psnr_db"] = std::isfinite(m.psnr) ? nlohmann::ordered_json(m.psnr) : nlohmann::ordered_json(nullptr);
   json["ssim"] = m.ssim;
   json["silhouette_mismatch"] = m.silhouetteMismatch;
+  json["inside_pixels"] = m.insidePixels;
+  json["mean_absolute_error_inside"] = m.meanAbsoluteErrorInside;
   return json;
 }
 
@@ -91,6 +93,16 @@ RenderFigures measureViews(const std::vector<ViewImages>& views) {
   }
   figures.apo = statsOfAngles(std::move(allApo));
   figures.baseline = statsOfAngles(std::move(allBaseline));
+  std::vector<ImageMetrics> apoImages, baselineImages;
+  for (const ViewFigures& view : figures.views) {
+    if (view.apo.image.pixels == 0) continue;
+    apoImages.push_back(view.apo.image);
+    baselineImages.push_back(view.baseline.image);
+  }
+  if (!apoImages.empty()) {
+    figures.apoImage = poolImageMetrics(apoImages);
+    figures.baselineImage = poolImageMetrics(baselineImages);
+  }
   return figures;
 }
 
@@ -102,6 +114,8 @@ std::string renderReportJson(const RenderFigures& figures, const RenderOptions& 
   json["overall"] = {{"apo", anglesJson(figures.apo)},
                      {"baseline", anglesJson(figures.baseline)},
                      {"baseline_over_apo", figures.apo.mean > 0.0 ? figures.baseline.mean / figures.apo.mean : 0.0},
+                     {"apo_image", imageJson(figures.apoImage)},
+                     {"baseline_image", imageJson(figures.baselineImage)},
                      {"cost", costJson(figures.cost)}};
   nlohmann::ordered_json views = nlohmann::ordered_json::array();
   for (std::size_t i = 0; i < figures.views.size(); ++i) {

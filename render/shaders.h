@@ -183,8 +183,10 @@ vec3 normalAt(Walk w) { return decodeNormal(texel(w.normalTexel).rgb); }
 
 // Paper 5.3: the normal blended trilinearly from the 8 cells around P at the
 // depth of P's own cell, each reached by its own walk; a neighbour that is
-// missing or stops higher gives the normal of the node it stops at.
+// missing or stops more than one level higher gives P's own normal (bake/'s
+// lookupTextureFiltered does the same).
 vec3 filteredNormal(vec3 P, Walk own, float distance) {
+  vec3 ownNormal = normalAt(own);
   float width = 1.0 / float(1u << uint(own.depth));
   vec3 lattice = P / width - 0.5;
   vec3 base = floor(lattice);
@@ -195,7 +197,7 @@ vec3 filteredNormal(vec3 P, Walk own, float distance) {
     vec3 weight3 = mix(1.0 - t, t, c);
     float weight = weight3.x * weight3.y * weight3.z;
     Walk w = walk((base + c + 0.5) * width, own.depth, distance);
-    sum += weight * (w.found ? normalAt(w) : normalAt(own));
+    sum += weight * (w.found && w.depth + 1 >= own.depth ? normalAt(w) : ownNormal);
   }
   return normalize(sum);
 }

@@ -400,6 +400,67 @@ TEST(CompareImages, SilhouetteMismatchOfTwoRectangles) {
   EXPECT_EQ(swapped.silhouetteMismatch, metrics.silhouetteMismatch);
 }
 
+TEST(CompareImages, InsideErrorLeavesOutTheSilhouetteMismatch) {
+  // Test covers [5,25)x[4,20), reference [15,40)x[10,30): they share 100
+  // pixels. The test image is 100 everywhere, the reference 110 on the shared
+  // pixels and 200 elsewhere.
+  const NormalBuffer testCoverage = rectangleCoverage(48, 40, 5, 4, 25, 20);
+  const NormalBuffer referenceCoverage = rectangleCoverage(48, 40, 15, 10, 40, 30);
+  const Image test = uniformImage(48, 40, {100, 100, 100});
+  Image reference = uniformImage(48, 40, {200, 200, 200});
+  for (int y = 10; y < 20; ++y)
+    for (int x = 15; x < 25; ++x)
+      for (int c = 0; c < 3; ++c) reference.rgba[4 * (static_cast<std::size_t>(y) * 48 + x) + c] = 110;
+  const ImageMetrics metrics = compareImages(test, reference, testCoverage, referenceCoverage);
+  EXPECT_EQ(metrics.insidePixels, 100u);
+  EXPECT_DOUBLE_EQ(metrics.meanAbsoluteErrorInside, 10.0);
+  EXPECT_DOUBLE_EQ(metrics.meanAbsoluteError, (100.0 * 10.0 + 620.0 * 100.0) / 720.0);
+  EXPECT_DOUBLE_EQ(metrics.meanSquaredError, (100.0 * 100.0 + 620.0 * 10000.0) / 720.0);
+}
+
+// Two views pooled are the two images side by side, for every pixel-additive
+// figure; SSIM (a mean over windows) is the mean of the views'.
+TEST(PoolImageMetrics, PixelFiguresEqualThoseOfTheViewsSideBySide) {
+  const Image testA = randomImage(16, 12, 0, 255, 21), referenceA = randomImage(16, 12, 0, 255, 22);
+  const Image testB = randomImage(16, 12, 0, 255, 23), referenceB = randomImage(16, 12, 0, 255, 24);
+  const NormalBuffer coverTestA = rectangleCoverage(16, 12, 2, 2, 12, 10), coverReferenceA = rectangleCoverage(16, 12, 4, 1, 14, 11);
+  const NormalBuffer coverTestB = rectangleCoverage(16, 12, 0, 0, 8, 12), coverReferenceB = rectangleCoverage(16, 12, 0, 0, 16, 6);
+  const ImageMetrics a = compareImages(testA, referenceA, coverTestA, coverReferenceA);
+  const ImageMetrics b = compareImages(testB, referenceB, coverTestB, coverReferenceB);
+
+  // Side by side: 32 x 12, view A on the left.
+  const auto sideBySideImage = [](const Image& left, const Image& right) {
+    Image joined = uniformImage(32, 12, {0, 0, 0});
+    for (int y = 0; y < 12; ++y)
+      for (int x = 0; x < 32; ++x)
+        for (int c = 0; c < 4; ++c)
+          joined.rgba[4 * (static_cast<std::size_t>(y) * 32 + x) + c] =
+              (x < 16 ? left : right).rgba[4 * (static_cast<std::size_t>(y) * 16 + x % 16) + c];
+    return joined;
+  };
+  const auto sideBySideCoverage = [](const NormalBuffer& left, const NormalBuffer& right) {
+    NormalBuffer joined = emptyBuffer(32, 12);
+    for (int y = 0; y < 12; ++y)
+      for (int x = 0; x < 32; ++x)
+        for (int c = 0; c < 4; ++c)
+          joined.data[4 * (static_cast<std::size_t>(y) * 32 + x) + c] =
+              (x < 16 ? left : right).data[4 * (static_cast<std::size_t>(y) * 16 + x % 16) + c];
+    return joined;
+  };
+  const ImageMetrics joined = compareImages(sideBySideImage(testA, testB), sideBySideImage(referenceA, referenceB),
+                                            sideBySideCoverage(coverTestA, coverTestB),
+                                            sideBySideCoverage(coverReferenceA, coverReferenceB));
+  const ImageMetrics pooled = poolImageMetrics({a, b});
+  EXPECT_EQ(pooled.pixels, joined.pixels);
+  EXPECT_EQ(pooled.insidePixels, joined.insidePixels);
+  EXPECT_NEAR(pooled.meanAbsoluteError, joined.meanAbsoluteError, 1e-12);
+  EXPECT_NEAR(pooled.meanSquaredError, joined.meanSquaredError, 1e-9);
+  EXPECT_NEAR(pooled.psnr, joined.psnr, 1e-12);
+  EXPECT_NEAR(pooled.silhouetteMismatch, joined.silhouetteMismatch, 1e-12);
+  EXPECT_NEAR(pooled.meanAbsoluteErrorInside, joined.meanAbsoluteErrorInside, 1e-12);
+  EXPECT_DOUBLE_EQ(pooled.ssim, (a.ssim + b.ssim) / 2.0);
+}
+
 TEST(CompareImages, NothingCovered) {
   const NormalBuffer none = emptyBuffer(12, 10);
   const ImageMetrics metrics =
