@@ -1,21 +1,48 @@
-// The only file that includes OSMesa. Functions are loaded through
-// OSMesaGetProcAddress rather than linked: that works whatever the link order
-// (a libGL linked ahead of OSMesa would otherwise take the calls, see
-// ../shared/STACK.md), and keeps every pointer in the context that owns it.
+// The only file that includes OSMesa. libOSMesa itself is loaded at run time
+// (dlopen), so that a machine without it gets a clear error from the render
+// stage while every other command works, rather than a loader failure before
+// main. GL functions are loaded through OSMesaGetProcAddress rather than
+// linked: that works whatever the link order (a libGL linked ahead of OSMesa
+// would otherwise take the calls, see ../shared/STACK.md), and keeps every
+// pointer in the context that owns it.
 #include "render/gl_context.h"
 
 #include <GL/osmesa.h>
+#include <dlfcn.h>
+
+#include <cstdlib>
+#include <type_traits>
 
 namespace apo::gl {
+
+struct OsMesaLibrary {
+  void* handle = nullptr;
+  decltype(&OSMesaCreateContextAttribs) createContextAttribs = nullptr;
+  decltype(&OSMesaMakeCurrent) makeCurrent = nullptr;
+  decltype(&OSMesaDestroyContext) destroyContext = nullptr;
+  decltype(&OSMesaGetProcAddress) getProcAddress = nullptr;
+
+  // RTLD_NODELETE: llvmpipe's threads outlive a context, so the library is
+  // never unmapped; dlclose only drops the reference.
+  ~OsMesaLibrary() {
+    if (handle) dlclose(handle);
+  }
+};
+
+std::string defaultOsMesaLibrary() {
+  const char* chosen = std::getenv("APO_OSMESA_LIBRARY");
+  return chosen && *chosen ? chosen : "libOSMesa.so.8";
+}
+
 namespace {
 
-OSMesaContext createCoreContext(int major, int minor) {
+OSMesaContext createCoreContext(const OsMesaLibrary& osmesa, int major, int minor) {
   // Depth 0: the default buffer is a dummy; the target has its own depth.
   const int attributes[] = {OSMESA_FORMAT, OSMESA_RGBA, OSMESA_DEPTH_BITS, 0,
                             OSMESA_PROFILE, OSMESA_CORE_PROFILE,
                             OSMESA_CONTEXT_MAJOR_VERSION, major,
                             OSMESA_CONTEXT_MINOR_VERSION, minor, 0};
-  return OSMesaCreateContextAttribs(attributes, nullptr);
+  return osmesa.createContextAttribs(attributes, nullptr);
 }
 
 const char* glErrorName(GLenum error) {
@@ -36,10 +63,13 @@ std::string glString(const Api& api, GLenum name) {
 
 }  // namespace
 
-Result<std::unique_ptr<Context>> Context::create(int width, int height) {
+Context::Context(int width, int height) : width_(width), height_(height) {}
+
+Result<std::unique_ptr<Context>> Context::create(int width, int height, const std::string& osmesaLibrary) {
   if (width < 1 || height < 1) return usageError("render target {} x {}: both sides must be at least 1", width, height);
   std::unique_ptr<Context> context(new Context(width, height));
   // On any failure the destructor releases whatever was made.
+  APO_RETURN_IF_ERROR(context->loadOsMesa(osmesaLibrary));
   APO_RETURN_IF_ERROR(context->createOsMesaContext());
   APO_RETURN_IF_ERROR(context->loadApi());
   APO_RETURN_IF_ERROR(context->queryInfo());
@@ -54,15 +84,33 @@ Context::~Context() {
     api_.DeleteFramebuffers(1, &framebuffer_);
     api_.DeleteRenderbuffers(static_cast<GLsizei>(renderbuffers_.size()), renderbuffers_.data());
   }
-  OSMesaDestroyContext(osmesa_);
+  library_->destroyContext(osmesa_);
+}
+
+Status Context::loadOsMesa(const std::string& library) {
+  library_ = std::make_unique<OsMesaLibrary>();
+  library_->handle = dlopen(library.c_str(), RTLD_NOW | RTLD_LOCAL | RTLD_NODELETE);
+  if (library_->handle == nullptr) {
+    return internalError("cannot load the OSMesa library {} ({}): the render stage draws with Mesa's off-screen GL "
+                         "(Debian package libosmesa6; setup.sh installs it)", library, dlerror());
+  }
+  const auto load = [&](auto& function, const char* name) -> Status {
+    function = reinterpret_cast<std::remove_reference_t<decltype(function)>>(dlsym(library_->handle, name));
+    if (function == nullptr) return internalError("the OSMesa library {} has no {}", library, name);
+    return okStatus();
+  };
+  APO_RETURN_IF_ERROR(load(library_->createContextAttribs, "OSMesaCreateContextAttribs"));
+  APO_RETURN_IF_ERROR(load(library_->makeCurrent, "OSMesaMakeCurrent"));
+  APO_RETURN_IF_ERROR(load(library_->destroyContext, "OSMesaDestroyContext"));
+  return load(library_->getProcAddress, "OSMesaGetProcAddress");
 }
 
 Status Context::createOsMesaContext() {
   // 4.5 is what llvmpipe gives; 3.3 is the least the shaders need.
-  osmesa_ = createCoreContext(4, 5);
+  osmesa_ = createCoreContext(*library_, 4, 5);
   info_.requested = "core 4.5";
   if (osmesa_ == nullptr) {
-    osmesa_ = createCoreContext(3, 3);
+    osmesa_ = createCoreContext(*library_, 3, 3);
     info_.requested = "core 3.3 (core 4.5 was refused)";
   }
   if (osmesa_ == nullptr) {
@@ -73,7 +121,7 @@ Status Context::createOsMesaContext() {
 }
 
 Status Context::makeCurrent() {
-  if (!OSMesaMakeCurrent(osmesa_, dummyBuffer_.data(), GL_UNSIGNED_BYTE, 1, 1)) {
+  if (!library_->makeCurrent(osmesa_, dummyBuffer_.data(), GL_UNSIGNED_BYTE, 1, 1)) {
     return internalError("OSMesaMakeCurrent failed for a {} context on a 1 x 1 RGBA buffer", info_.requested);
   }
   return okStatus();
@@ -84,7 +132,7 @@ Status Context::makeCurrent() {
 // version check is the real guarantee.
 Status Context::loadApi() {
 #define APO_GL_LOAD(type, name)                                                        \
-  api_.name = reinterpret_cast<type>(OSMesaGetProcAddress("gl" #name));                \
+  api_.name = reinterpret_cast<type>(library_->getProcAddress("gl" #name));             \
   if (api_.name == nullptr) {                                                          \
     return internalError("OSMesa does not provide gl" #name " (in a {} context)", info_.requested); \
   }

@@ -18,6 +18,12 @@ struct osmesa_context;  // <GL/osmesa.h>'s OSMesaContext points to it
 
 namespace apo::gl {
 
+struct OsMesaLibrary;  // libOSMesa, loaded at run time, and its entry points
+
+// The OSMesa library Context::create loads: $APO_OSMESA_LIBRARY when set,
+// else Mesa's "libOSMesa.so.8" (Debian's libosmesa6).
+std::string defaultOsMesaLibrary();
+
 // Every GL function the render code uses: X(pointer type, name without "gl").
 // To call a new function, add it here; Context::create loads the whole list.
 #define APO_GL_FUNCTIONS(X)                                                   \
@@ -116,9 +122,10 @@ class Context {
  public:
   // A core profile 4.5, or 3.3 if 4.5 is refused; made current on return.
   // Usage error for a size outside [1, GL_MAX_RENDERBUFFER_SIZE]; Internal
-  // error when OSMesa refuses the context, lacks a function, or the target is
-  // incomplete.
-  static Result<std::unique_ptr<Context>> create(int width, int height);
+  // error when `osmesaLibrary` cannot be loaded, OSMesa refuses the context,
+  // lacks a function, or the target is incomplete.
+  static Result<std::unique_ptr<Context>> create(int width, int height,
+                                                 const std::string& osmesaLibrary = defaultOsMesaLibrary());
   ~Context();
   Context(const Context&) = delete;
   Context& operator=(const Context&) = delete;
@@ -138,13 +145,15 @@ class Context {
   void clearTarget(const std::array<float, 4>& background) const;
 
  private:
-  Context(int width, int height) : width_(width), height_(height) {}
+  Context(int width, int height);
+  Status loadOsMesa(const std::string& library);
   Status createOsMesaContext();
   Status loadApi();
   Status queryInfo();
   Status createTarget();
 
   int width_ = 0, height_ = 0;
+  std::unique_ptr<OsMesaLibrary> library_;
   osmesa_context* osmesa_ = nullptr;
   // OSMesa needs a colour buffer to make a context current; nothing draws to it.
   std::vector<std::uint8_t> dummyBuffer_ = std::vector<std::uint8_t>(4);

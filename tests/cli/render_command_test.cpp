@@ -1,5 +1,5 @@
 // `apo render` through the binary: the files of each view and render.json,
-// and an .apo baked around another m refused.
+// an .apo baked around another m refused, and a machine without OSMesa.
 #include "bake/bake.h"
 #include "ingest/ingest.h"
 #include "tests/bake/bumpy_sphere.h"
@@ -57,6 +57,19 @@ TEST(RenderCommand, AnApoBakedAroundAnotherMIsBadInput) {
   EXPECT_EQ(result.exitCode, 2);
   EXPECT_THAT(result.output, HasSubstr("baked around another coarse mesh"));
   EXPECT_FALSE(fs::exists(baked.dir / "render" / "render.json"));
+}
+
+TEST(RenderCommand, WithoutOsMesaItExitsThreeNamingTheLibraryAndWritesNothing) {
+  const Baked baked;
+  const auto result = test::runCommand(
+      fmt::format("APO_OSMESA_LIBRARY=/nonexistent/libOSMesa.so.8 {} render --apo '{}' --coarse '{}' -o '{}' --size 96",
+                  test::apoExecutable().string(), (baked.dir / "scan.apo").string(), (baked.dir / "m.ply").string(),
+                  (baked.dir / "render").string()));
+  EXPECT_EQ(result.exitCode, 3) << result.output;
+  EXPECT_THAT(result.output, HasSubstr("/nonexistent/libOSMesa.so.8"));
+  EXPECT_THAT(result.output, HasSubstr("libosmesa6"));
+  EXPECT_FALSE(fs::exists(baked.dir / "render" / "render.json"));
+  EXPECT_FALSE(fs::exists(baked.dir / "render" / "view00_apo.png"));
 }
 
 }  // namespace

@@ -91,6 +91,18 @@ TEST(GlContext, IsACoreProfileOfAtLeast33WithGlsl330) {
   EXPECT_GE(info.maxTextureSize, 4096);
 }
 
+TEST(GlContext, AMissingOsMesaLibraryIsAnErrorNamingItAndThePackage) {
+  auto context = Context::create(16, 16, "libOSMesa-not-installed.so.8");
+  ASSERT_FALSE(context.ok());
+  EXPECT_EQ(context.error().kind, ErrorKind::Internal);
+  EXPECT_THAT(context.error().message, HasSubstr("libOSMesa-not-installed.so.8"));
+  EXPECT_THAT(context.error().message, HasSubstr("libosmesa6"));
+  // And a library that loads but is not OSMesa.
+  auto notOsMesa = Context::create(16, 16, "libm.so.6");
+  ASSERT_FALSE(notOsMesa.ok());
+  EXPECT_THAT(notOsMesa.error().message, HasSubstr("has no OSMesaCreateContextAttribs"));
+}
+
 TEST(GlContext, RefusesAnEmptyTarget) {
   auto context = Context::create(0, 16);
   ASSERT_FALSE(context.ok());
