@@ -71,11 +71,30 @@ Result<std::vector<ScanJob>> findScans(const fs::path& scanDir, const fs::path& 
       continue;
     }
     if (!it->is_regular_file(error) || !kScanExtensions.contains(lowercase(it->path().extension().string()))) continue;
-    const std::string relative = fs::relative(it->path(), scanDir, error).generic_string();
-    jobs.push_back({it->path(), relative, outDir / relative});
+    // Lexically, as found: fs::relative would follow a symlinked scan to its
+    // target and put its output folder wherever that lies (on the input).
+    const fs::path relative = it->path().lexically_relative(scanDir);
+    if (relative.empty() || *relative.begin() == "..")
+      return internalError("{}: found outside the scan folder {}", it->path().string(), scanDir.string());
+    jobs.push_back({it->path(), relative.generic_string(), outDir / relative});
   }
   std::sort(jobs.begin(), jobs.end(), [](const ScanJob& a, const ScanJob& b) { return a.relative < b.relative; });
   return jobs;
+}
+
+// An output folder may be emptied only if apo made it: absent, an empty
+// folder, or a folder holding a manifest or a worker's log. Anything else in
+// the way (a file, a user's folder) is left alone.
+Status checkOutputFolderIsOurs(const fs::path& folder) {
+  std::error_code error;
+  const fs::file_status status = fs::symlink_status(folder, error);
+  if (!fs::exists(status)) return okStatus();
+  if (!fs::is_directory(status))
+    return badInput("{}: exists and is not a folder; the scan's outputs would replace it, so it is left alone",
+                    folder.string());
+  if (fs::is_empty(folder, error) || fs::exists(folder / "manifest.json", error) || fs::exists(folder / "run.log", error))
+    return okStatus();
+  return badInput("{}: a folder that apo did not write (no manifest.json); it is left alone", folder.string());
 }
 
 std::optional<Json> readManifest(const fs::path& outDir) {
@@ -227,6 +246,11 @@ int runBatch(CLI::App& app, const BatchCommand& command) {
         continue;
       }
       // Redone from scratch: whatever an earlier, interrupted run left goes.
+      if (Status ours = checkOutputFolderIsOurs(job.outDir); !ours.ok()) {
+        ++tally.failed;
+        finish(job, "FAILED: " + ours.error().message);
+        continue;
+      }
       std::error_code error;
       fs::remove_all(job.outDir, error);
       fs::create_directories(job.outDir, error);

@@ -5,6 +5,18 @@
 #include <map>
 
 namespace apo::cli {
+namespace {
+
+// "{a,b,c}" for the help: CLI11 would print the map's enum values, as
+// characters for a uint8_t enum.
+template <class Map>
+std::string choicesOf(const Map& choices) {
+  std::string names;
+  for (const auto& [name, value] : choices) names += (names.empty() ? "" : ",") + name;
+  return "{" + names + "}";
+}
+
+}  // namespace
 
 void IngestArguments::apply() {
   if (sensor.size() == 3) options.sensorPosition = Vec3f(sensor[0], sensor[1], sensor[2]);
@@ -39,7 +51,7 @@ void addReconstructOptions(CLI::App& app, ReconstructOptions& o) {
   app.add_option("--method", o.method,
                  "auto (Poisson for closed objects, advancing front for open scans), poisson, advancing-front, "
                  "scale-space")
-      ->transform(CLI::CheckedTransformer(methods, CLI::ignore_case))
+      ->transform(CLI::CheckedTransformer(methods, CLI::ignore_case).description(choicesOf(methods)))
       ->default_str("auto");
   app.add_option_function<std::uint64_t>(
          "--max-points", [&o](const std::uint64_t& value) { o.maxPoints = value; },
@@ -84,7 +96,7 @@ void addBakeOptions(CLI::App& app, BakeArguments& arguments) {
   const std::map<std::string, NormalEncoding> encodings = {{"xyz8", NormalEncoding::Xyz8},
                                                            {"oct24", NormalEncoding::Oct24}};
   app.add_option("--normal-encoding", o.encoding, "xyz8 (the paper's 8 bits per axis) or oct24 (octahedral)")
-      ->transform(CLI::CheckedTransformer(encodings, CLI::ignore_case))
+      ->transform(CLI::CheckedTransformer(encodings, CLI::ignore_case).description(choicesOf(encodings)))
       ->default_str(normalEncodingName(o.encoding));
   app.add_option("--threads", arguments.threads, "Worker threads (0: all cores); the output does not depend on it")
       ->capture_default_str();

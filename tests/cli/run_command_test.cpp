@@ -208,6 +208,36 @@ TEST(BatchCommand, AScanOverItsTimeLimitIsStoppedAndRecorded) {
   EXPECT_THAT(manifest["error"]["message"].get<std::string>(), HasSubstr("longer than --scan-timeout"));
 }
 
+// Labs link acquisitions into a batch folder: each output goes under OUTDIR at
+// the link's path, and the linked files stay as they were.
+TEST(BatchCommand, SymlinkedScansKeepTheirInputsAndWriteUnderOutdir) {
+  const fs::path dir = test::freshTempDir();
+  const fs::path elsewhere = writeMeshScan(dir / "archive" / "deep" / "a.ply");
+  const std::string before = fileBytes(elsewhere);
+  fs::create_directories(dir / "scans" / "lab");
+  fs::create_symlink(fs::absolute(elsewhere), dir / "scans" / "lab" / "linked.ply");
+  const auto result = apo(fmt::format("batch '{}' -o '{}' {}", (dir / "scans").string(), (dir / "out").string(), kQuick));
+  EXPECT_EQ(result.exitCode, 0) << result.output;
+  EXPECT_TRUE(fs::is_regular_file(elsewhere));
+  EXPECT_EQ(fileBytes(elsewhere), before);
+  EXPECT_EQ(readJson(dir / "out" / "lab" / "linked.ply" / "manifest.json")["status"], "succeeded");
+  EXPECT_FALSE(fs::exists(dir / "archive" / "deep" / "a.ply" / "manifest.json"));
+}
+
+// A scan's output folder that apo did not make is never emptied: that scan
+// fails, naming it, and the others go on.
+TEST(BatchCommand, AFolderInTheWayThatApoDidNotWriteIsLeftAlone) {
+  const fs::path dir = test::freshTempDir();
+  writeMeshScan(dir / "scans" / "a.ply");
+  writeMeshScan(dir / "scans" / "b.ply");
+  test::writeBytes(dir / "out" / "a.ply" / "thesis.tex", "years of work");
+  const auto result = apo(fmt::format("batch '{}' -o '{}' {}", (dir / "scans").string(), (dir / "out").string(), kQuick));
+  EXPECT_EQ(result.exitCode, 2) << result.output;
+  EXPECT_THAT(result.output, HasSubstr("a folder that apo did not write"));
+  EXPECT_EQ(fileBytes(dir / "out" / "a.ply" / "thesis.tex"), "years of work");
+  EXPECT_EQ(readJson(dir / "out" / "b.ply" / "manifest.json")["status"], "succeeded");
+}
+
 TEST(BatchCommand, TwoBatchesCannotWriteTheSameFolder) {
   const fs::path dir = test::freshTempDir();
   const fs::path scans = makeScanFolder(dir);
