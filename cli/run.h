@@ -53,11 +53,14 @@ struct StageArguments {
   RenderArguments render = defaultRunRender();
   std::filesystem::path configFile;  // --config
 
-  // The QA report's renders: 512 px, 3 timed frames (`apo render` defaults to 1024 and 5).
+  // The QA report's renders: 512 px, 3 timed frames, filtered (`apo render`
+  // defaults to 1024, 5 and unfiltered).
   static RenderArguments defaultRunRender() {
     RenderArguments render;
     render.options.size = 512;
     render.options.timedFrames = 3;
+    render.filterByDefault = true;
+    render.options.filtering = true;
     return render;
   }
 };

@@ -26,7 +26,10 @@ void SimplifyArguments::apply() {
   options.policy = policy == "lt" ? SimplifyPolicy::LindstromTurk : SimplifyPolicy::GarlandHeckbert;
 }
 
-void RenderArguments::apply() { options.mipmapping = !noMipmapping; }
+void RenderArguments::apply() {
+  options.mipmapping = !noMipmapping;
+  if (filterByDefault) options.filtering = !noFiltering;
+}
 
 void addIngestOptions(CLI::App& app, IngestArguments& arguments) {
   IngestOptions& o = arguments.options;
@@ -109,7 +112,11 @@ void addRenderOptions(CLI::App& app, RenderArguments& arguments) {
       ->check(CLI::Range(1, 14))
       ->capture_default_str();
   app.add_flag("--no-mipmap", arguments.noMipmapping, "Walk to the leaves even where cells are smaller than a pixel");
-  app.add_flag("--filter", o.filtering, "Trilinear filtering of the 8 neighbouring cells (paper 5.3)");
+  if (arguments.filterByDefault)
+    app.add_flag("--no-filter", arguments.noFiltering,
+                 "No trilinear filtering of the 8 neighbouring cells (paper 5.3): each leaf's normal as it is");
+  else
+    app.add_flag("--filter", o.filtering, "Trilinear filtering of the 8 neighbouring cells (paper 5.3)");
   app.add_option("--frames", o.timedFrames, "Frames timed per pass and view (median); 0: no timing")
       ->check(CLI::Range(0, 1000))
       ->capture_default_str();

@@ -37,6 +37,11 @@ struct BakeArguments {
 struct RenderArguments {
   RenderOptions options;
   bool noMipmapping = false;
+  // `apo run` and `apo batch` filter unless told --no-filter (their report is
+  // about accuracy); `apo render` filters when told --filter (the paper's
+  // default, and 3-4x cheaper per frame).
+  bool filterByDefault = false;
+  bool noFiltering = false;
   void apply();
 };
 

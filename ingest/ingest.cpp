@@ -7,6 +7,7 @@
 #include "ingest/normals.h"
 #include "ingest/pcl_adapter.h"
 
+#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
@@ -127,6 +128,13 @@ Status pointCloudNormals(Scan& scan, const IngestOptions& options, IngestReport&
 
 nlohmann::ordered_json vectorJson(const Vec3f& v) { return {v.x(), v.y(), v.z()}; }
 
+// "drop_points_without_normal removed the last 8": which step emptied the scan.
+std::string lastRemoval(const IngestReport& report) {
+  for (auto step = report.steps.rbegin(); step != report.steps.rend(); ++step)
+    if (step->removed > 0) return fmt::format("{} removed the last {}", step->name, step->removed);
+  return "no step removed any";
+}
+
 }  // namespace
 
 Result<IngestResult> ingestScan(const fs::path& path, const IngestOptions& options) {
@@ -170,7 +178,7 @@ Result<IngestResult> ingestScan(const fs::path& path, const IngestOptions& optio
   } else {
     APO_RETURN_IF_ERROR(cleanPointCloud(scan, options, report, path));
     APO_RETURN_IF_ERROR(pointCloudNormals(scan, options, report, path));
-    if (scan.points.size() == 0) return badInput("{}: no point remains after cleaning", path.string());
+    if (scan.points.size() == 0) return badInput("{}: no point remains after cleaning ({})", path.string(), lastRemoval(report));
   }
 
   report.pointsOut = scan.points.size();

@@ -44,7 +44,7 @@ fs::path writeMeshScan(const fs::path& path) {
 TEST(RunCommand, AMeshScanGoesThroughEveryStageIntoOneFolder) {
   const fs::path dir = test::freshTempDir();
   const fs::path scan = writeMeshScan(dir / "sphere.ply");
-  const auto result = apo(fmt::format("run '{}' -o '{}' {} --filter", scan.string(), (dir / "out").string(), kQuick));
+  const auto result = apo(fmt::format("run '{}' -o '{}' {}", scan.string(), (dir / "out").string(), kQuick));
   ASSERT_EQ(result.exitCode, 0) << result.output;
   for (const char* file : {"m.ply", "scan.apo", "texture.png", "report.html", "manifest.json", "render/view00_apo.png",
                            "render/view01_reference.png", "render/view01_apo_error.png", "render/render.json"})
@@ -65,7 +65,10 @@ TEST(RunCommand, AMeshScanGoesThroughEveryStageIntoOneFolder) {
   EXPECT_EQ(manifest["options"]["render"]["size"], "64");
   EXPECT_EQ(manifest["options"]["bake"]["error"], "0.05");  // defaults are recorded too
   EXPECT_EQ(manifest["results"]["simplify"]["faces"]["out"], 300);
-  // Filtered (unfiltered, on this smooth sphere, the APO is about as close as m's own normals: docs/render.md).
+  // Filtered by default here (unfiltered, on this smooth sphere, the APO is
+  // about as close as m's own normals: docs/render.md).
+  EXPECT_EQ(manifest["options"]["render"]["no-filter"], "false");
+  EXPECT_EQ(manifest["results"]["render"]["options"]["filtering"], true);
   const auto& overall = manifest["results"]["render"]["overall"];
   EXPECT_LT(overall["apo"]["mean"].get<double>(), overall["baseline"]["mean"].get<double>());
   EXPECT_THAT(fileBytes(dir / "out" / "report.html"), HasSubstr("sphere.ply"));

@@ -77,6 +77,19 @@ TEST(IngestScan, AllNonFiniteIsBadInput) {
   EXPECT_THAT(result.error().message, HasSubstr("all 3 points have non-finite coordinates"));
 }
 
+// The 8 corners of a cube (CGAL's points_3/cube.xyz): no neighbourhood is a
+// surface, so no normal can be estimated and the scan empties; the message
+// says which step emptied it.
+TEST(IngestScan, AScanEmptiedByCleaningSaysWhichStepEmptiedIt) {
+  const fs::path path = test::freshTempDir() / "cube.xyz";
+  test::writeBytes(path, "-1 -1 -1\n-1 1 -1\n1 1 -1\n1 -1 -1\n-1 -1 1\n-1 1 1\n1 1 1\n1 -1 1\n");
+  auto result = ingestScan(path, IngestOptions{});
+  ASSERT_FALSE(result.ok());
+  EXPECT_EQ(result.error().kind, ErrorKind::BadInput);
+  EXPECT_THAT(result.error().message, HasSubstr("no point remains after cleaning"));
+  EXPECT_THAT(result.error().message, HasSubstr("drop_points_without_normal removed the last 8"));
+}
+
 TEST(IngestScan, VoxelAndOutlierOptionsAreReported) {
   const fs::path path = test::freshTempDir() / "sphere.xyz";
   test::writeBytes(path, sphereXyz(4000) + "30 30 30\n");  // one far outlier
