@@ -9,16 +9,19 @@
 #      40 s, then run to the end: its m.ply / M.ply / scan.apo / texture.png
 #      must equal the first batch's for every scan that succeeded;
 #   3. a markdown table of the first batch: per scan, its size, status and
-#      per-stage seconds and peak memory, from the manifests.
+#      per-stage seconds and peak memory, from the manifests;
+#   4. its summary (bench/pipeline_summary.py): times, the slowest scans,
+#      the failures, and the APO against m alone.
+# Extra batch options (e.g. --no-filter) go in APO_OPTIONS.
 # Usage (after the README's setup and build): bash bench/pipeline_bench.sh [OUTDIR]
-# Takes about an hour on this machine.
+# Takes about 20 minutes on this machine.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-out/bench/pipeline}
 mkdir -p "$out/bin"
 cp build/apo "$out/bin/"
 apo=$out/bin/apo
-options=(--scan-timeout 300)
+options=(--scan-timeout 300 ${APO_OPTIONS:-})
 
 # ---- The scan folder ----------------------------------------------------------
 rm -rf "$out/scans"
@@ -114,3 +117,7 @@ for manifest_path in sorted(root.rglob("manifest.json")):
     angles = f"{render['apo']['mean']:.2f} / {render['baseline']['mean']:.2f}" if render else "-"
     print(f"| {scan} | {size} | {status} | " + " | ".join(cells) + f" | {total:.1f} | {angles} |")
 EOF
+
+# ---- 4. The summary --------------------------------------------------------------
+echo
+python3 bench/pipeline_summary.py "$out/first"

@@ -418,6 +418,19 @@ TEST(CompareImages, InsideErrorLeavesOutTheSilhouetteMismatch) {
   EXPECT_DOUBLE_EQ(metrics.meanSquaredError, (100.0 * 100.0 + 620.0 * 10000.0) / 720.0);
 }
 
+// Two buffers of the same size side by side, `left` on the left.
+template <class Buffer, class Values>
+Buffer sideBySide(const Buffer& left, const Buffer& right, Values Buffer::*values) {
+  Buffer joined = left;
+  joined.width = 2 * left.width;
+  const std::size_t row = (left.*values).size() / static_cast<std::size_t>(left.height);
+  (joined.*values).clear();
+  for (std::size_t y = 0; y < static_cast<std::size_t>(left.height); ++y)
+    for (const Buffer* half : {&left, &right})
+      (joined.*values).insert((joined.*values).end(), (half->*values).begin() + y * row, (half->*values).begin() + (y + 1) * row);
+  return joined;
+}
+
 // Two views pooled are the two images side by side, for every pixel-additive
 // figure; SSIM (a mean over windows) is the mean of the views'.
 TEST(PoolImageMetrics, PixelFiguresEqualThoseOfTheViewsSideBySide) {
@@ -428,28 +441,9 @@ TEST(PoolImageMetrics, PixelFiguresEqualThoseOfTheViewsSideBySide) {
   const ImageMetrics a = compareImages(testA, referenceA, coverTestA, coverReferenceA);
   const ImageMetrics b = compareImages(testB, referenceB, coverTestB, coverReferenceB);
 
-  // Side by side: 32 x 12, view A on the left.
-  const auto sideBySideImage = [](const Image& left, const Image& right) {
-    Image joined = uniformImage(32, 12, {0, 0, 0});
-    for (int y = 0; y < 12; ++y)
-      for (int x = 0; x < 32; ++x)
-        for (int c = 0; c < 4; ++c)
-          joined.rgba[4 * (static_cast<std::size_t>(y) * 32 + x) + c] =
-              (x < 16 ? left : right).rgba[4 * (static_cast<std::size_t>(y) * 16 + x % 16) + c];
-    return joined;
-  };
-  const auto sideBySideCoverage = [](const NormalBuffer& left, const NormalBuffer& right) {
-    NormalBuffer joined = emptyBuffer(32, 12);
-    for (int y = 0; y < 12; ++y)
-      for (int x = 0; x < 32; ++x)
-        for (int c = 0; c < 4; ++c)
-          joined.data[4 * (static_cast<std::size_t>(y) * 32 + x) + c] =
-              (x < 16 ? left : right).data[4 * (static_cast<std::size_t>(y) * 16 + x % 16) + c];
-    return joined;
-  };
-  const ImageMetrics joined = compareImages(sideBySideImage(testA, testB), sideBySideImage(referenceA, referenceB),
-                                            sideBySideCoverage(coverTestA, coverTestB),
-                                            sideBySideCoverage(coverReferenceA, coverReferenceB));
+  const ImageMetrics joined = compareImages(
+      sideBySide(testA, testB, &Image::rgba), sideBySide(referenceA, referenceB, &Image::rgba),
+      sideBySide(coverTestA, coverTestB, &NormalBuffer::data), sideBySide(coverReferenceA, coverReferenceB, &NormalBuffer::data));
   const ImageMetrics pooled = poolImageMetrics({a, b});
   EXPECT_EQ(pooled.pixels, joined.pixels);
   EXPECT_EQ(pooled.insidePixels, joined.insidePixels);
