@@ -162,12 +162,16 @@ Failure failureOf(const Json& manifest) {
   return failure;
 }
 
-// "failed at stage bake: message", escaped.
-std::string failureHtml(const Json& manifest) {
+// "failed at stage bake: message", escaped. The index leaves out the
+// message's leading "<input path>: ", which its row already names.
+std::string failureHtml(const Json& manifest, bool withoutInputPath = false) {
   const Failure failure = failureOf(manifest);
+  std::string message = failure.message;
+  const std::string prefix = textAt(&manifest, {"input", "path"}).value_or("") + ": ";
+  if (withoutInputPath && prefix.size() > 2 && message.rfind(prefix, 0) == 0) message.erase(0, prefix.size());
   std::string html = "failed";
   if (!failure.stage.empty()) html += " at stage <b>" + htmlEscape(failure.stage) + "</b>";
-  if (!failure.message.empty()) html += ": " + htmlEscape(failure.message);
+  if (!message.empty()) html += ": " + htmlEscape(message);
   return html;
 }
 
@@ -236,7 +240,7 @@ figcaption { font-size: 13px; color: #444; text-align: center; margin-top: 4px; 
 tr.failed td { background: #fdf3f2; }
 td.thumb { width: 96px; padding: 2px; }
 td.thumb img { width: 96px; height: 96px; object-fit: contain; display: block; }
-.errmsg { color: var(--bad); overflow-wrap: anywhere; max-width: 520px; }
+.errmsg { color: var(--bad); overflow-wrap: anywhere; min-width: 16em; max-width: 520px; }
 details { margin: 8px 0; }
 summary { cursor: pointer; font-weight: 600; }
 footer { margin-top: 36px; font-size: 12px; color: #777; }
@@ -805,7 +809,8 @@ std::string fallbackPage(const std::string& what) {
 std::string indexStatus(const Json& manifest) {
   const std::string status = textAt(&manifest, {"status"}).value_or("");
   if (status == "succeeded") return "<span class=\"status-succeeded\">succeeded</span>";
-  if (status == "failed") return "<span class=\"status-failed\">FAILED</span><div class=\"errmsg\">" + failureHtml(manifest) + "</div>";
+  if (status == "failed")
+    return "<span class=\"status-failed\">FAILED</span><div class=\"errmsg\">" + failureHtml(manifest, true) + "</div>";
   if (status == "running") return "<span class=\"status-running\">did not finish</span>";
   if (!manifest.is_object() || manifest.empty()) return "<span class=\"status-unknown\">no manifest</span>";
   return "<span class=\"status-unknown\">" + (status.empty() ? std::string("unknown") : htmlEscape(status)) + "</span>";
@@ -846,7 +851,12 @@ std::string indexRow(const BatchRow& scan) {
   const std::optional<double> apoMean = numberAt(render, {"overall", "apo", "mean"});
   const std::optional<double> baselineMean = numberAt(render, {"overall", "baseline", "mean"});
   html += "<td class=\"n\">" + degrees(apoMean) + " / " + degrees(baselineMean);
-  if (apoMean && baselineMean && *apoMean > 0.0) html += " (" + ratioText(*baselineMean / *apoMean) + "&times;)";
+  const Json* simplify = results(manifest, "simplify");
+  const std::optional<double> facesIn = numberAt(simplify, {"faces", "in"}), facesOut = numberAt(simplify, {"faces", "out"});
+  if (facesIn && facesOut && *facesIn == *facesOut)
+    html += " (m is M)";  // nothing was simplified: m's own normals are M's
+  else if (apoMean && baselineMean && *apoMean > 0.0)
+    html += " (" + ratioText(*baselineMean / *apoMean) + "&times;)";
   html += "</td>";
   html += "<td class=\"n\">" + seconds(totalSeconds(manifest)) + "</td>";
   return html + "</tr>\n";

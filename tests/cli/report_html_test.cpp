@@ -258,6 +258,22 @@ TEST(BatchIndexHtml, RowsForASuccessAndAFailure) {
   EXPECT_EQ(occurrences(html, "<img"), 1u);
 }
 
+// The row names the scan: the message does not repeat the input's path. A
+// scan whose mesh was not simplified says m is M rather than a ratio to an
+// error of zero.
+TEST(BatchIndexHtml, FailureWithoutThePathAndMIsMWithoutARatio) {
+  Json failed = failedAfterIngest("a.ply", "scans/a.ply: line 3: expected 3 fields");
+  Json same = succeededManifest("small.off", 1);
+  same["results"]["simplify"]["faces"] = {{"in", 2000}, {"target", 3000}, {"out", 2000}};
+  same["results"]["render"]["overall"]["baseline"]["mean"] = 0.0;
+  const std::string html = batchIndexHtml({{"a.ply", failed}, {"small.off", same}}, Json::object());
+  EXPECT_THAT(html, HasSubstr("failed at stage <b>reconstruct</b>: line 3: expected 3 fields"));
+  EXPECT_THAT(html, Not(HasSubstr("scans/a.ply: line 3")));
+  EXPECT_THAT(html, HasSubstr("2.40&deg; / 0.00&deg; (m is M)"));
+  // The scan's own report keeps the whole message.
+  EXPECT_THAT(qaReportHtml(failed), HasSubstr("scans/a.ply: line 3: expected 3 fields"));
+}
+
 TEST(BatchIndexHtml, AScanWithoutManifestIsListed) {
   const std::string html = batchIndexHtml({{"lost.ply", Json::object()}}, Json::object());
   EXPECT_THAT(html, HasSubstr("no manifest"));
