@@ -186,10 +186,8 @@ void countNodes(const Octree& octree, BakeReport& report) {
 constexpr double kBuildStart = 0.05, kSamplingStart = 0.6, kEncodingStart = 0.95;
 
 Result<Bake> bakeWith(const DetailSurface& detail, const Scan& coarse, const BakeOptions& options,
-                      const BakeProgress& onProgress) {
-  const auto progress = [&](double fraction) {
-    if (onProgress) onProgress(fraction);
-  };
+                      const ProgressCallback& onProgress) {
+  const auto progress = [&](double fraction) { reportProgress(onProgress, fraction); };
   APO_RETURN_IF_ERROR(validateOptions(options));
   APO_RETURN_IF_ERROR(validateInputs(detail, coarse));
   Stopwatch total;
@@ -254,7 +252,7 @@ Result<Bake> bakeWith(const DetailSurface& detail, const Scan& coarse, const Bak
   return bake;
 }
 
-Result<Bake> bakeApo(const Scan& detail, const Scan& coarse, const BakeOptions& options, const BakeProgress& onProgress) {
+Result<Bake> bakeApo(const Scan& detail, const Scan& coarse, const BakeOptions& options, const ProgressCallback& onProgress) {
   APO_RETURN_IF_ERROR(validateOptions(options));
   Stopwatch setup;
   Scan M = detail;

@@ -11,6 +11,7 @@
 #include "core/error.h"
 #include "core/geometry.h"
 #include "core/ray_caster.h"
+#include "core/timing.h"
 
 #include <array>
 #include <cstdint>
@@ -188,16 +189,12 @@ struct DetailSurface {
   std::vector<float> pointAreas;  // points only: each point's share of the surface
 };
 
-// Fraction of a bake done, in [0, 1], called as it goes (from worker threads
-// too, so it must be thread-safe); it does not change the result.
-using BakeProgress = std::function<void(double)>;
-
 // The algorithm against given seams (tests use brute-force ones).
 Result<Bake> bakeWith(const DetailSurface& detail, const Scan& coarse, const BakeOptions& options,
-                      const BakeProgress& onProgress = {});
+                      const ProgressCallback& onProgress = {});
 // The product: Embree and FLANN seams built for `detail`, then bakeWith.
 Result<Bake> bakeApo(const Scan& detail, const Scan& coarse, const BakeOptions& options,
-                     const BakeProgress& onProgress = {});
+                     const ProgressCallback& onProgress = {});
 
 // Production seams, one adapter file each.
 Result<std::unique_ptr<ClosestPointFinder>> makeFlannClosestPoint(const Scan& detail);

@@ -129,8 +129,13 @@ class Run {
     return okStatus();
   }
 
+  // The current stage's fraction done, to the progress line.
+  ProgressCallback reportFraction() {
+    return [this](double fraction) { progress_.setFraction(fraction); };
+  }
+
   Status reconstruct() {
-    auto reconstruction = reconstructScan(data_.scan, settings_.reconstruct);
+    auto reconstruction = reconstructScan(data_.scan, settings_.reconstruct, reportFraction());
     if (!reconstruction) return aboutInput(settings_.input, reconstruction.error());
     data_.dense = std::move(reconstruction->mesh);
     APO_RETURN_IF_ERROR(writePly(settings_.outDir / "M.ply", data_.dense));
@@ -140,7 +145,7 @@ class Run {
   }
 
   Status simplify() {
-    auto simplified = simplifyMesh(data_.dense, settings_.simplify);
+    auto simplified = simplifyMesh(data_.dense, settings_.simplify, reportFraction());
     if (!simplified) return aboutInput(settings_.input, simplified.error());
     data_.coarse = std::move(simplified->mesh);
     APO_RETURN_IF_ERROR(writePly(settings_.outDir / "m.ply", data_.coarse));
@@ -162,7 +167,7 @@ class Run {
   }
 
   Status bake(const Scan& detail) {
-    auto baked = bakeApo(detail, data_.coarse, settings_.bake, [&](double fraction) { progress_.setFraction(fraction); });
+    auto baked = bakeApo(detail, data_.coarse, settings_.bake, reportFraction());
     if (!baked) return aboutInput(settings_.input, baked.error());
     data_.texture = std::move(baked->texture);
     APO_RETURN_IF_ERROR(writeApoFile(settings_.outDir / "scan.apo", data_.texture));

@@ -1,8 +1,9 @@
-// Wall-clock and memory figures for reports.
+// Wall-clock and memory figures for reports, and progress of long steps.
 #pragma once
 
 #include <chrono>
 #include <cstdint>
+#include <functional>
 
 namespace apo {
 
@@ -25,5 +26,13 @@ std::uint64_t peakResidentBytes();
 // the peak is the process's since its start.
 void resetPeakResident();
 std::uint64_t peakResidentSinceReset();
+
+// Fraction of a long step done, in [0, 1], reported as it goes (possibly from
+// worker threads, so it must be thread-safe); it never changes a result.
+using ProgressCallback = std::function<void(double)>;
+
+inline void reportProgress(const ProgressCallback& callback, double fraction) {
+  if (callback) callback(fraction);
+}
 
 }  // namespace apo

@@ -63,7 +63,9 @@ struct EdgeCollapseResult {
   std::uint64_t filledHoles = 0;
   bool bordersCollapsed = false;
 };
-Result<EdgeCollapseResult> edgeCollapse(const Scan& mesh, std::uint64_t targetFaces, SimplifyPolicy policy);
+// `onCollapsed` hears the fraction of the faces to remove that are gone.
+Result<EdgeCollapseResult> edgeCollapse(const Scan& mesh, std::uint64_t targetFaces, SimplifyPolicy policy,
+                                        const ProgressCallback& onCollapsed = {});
 
 // --- cgal_measures.cpp -----------------------------------------------------
 

@@ -81,13 +81,38 @@ Result<Mesh> manifoldMesh(Soup& soup, std::uint64_t& addedVertices) {
 
 // CGAL 5.5 has stop predicates on edge counts only; a face count is what the
 // user asks for, and on meshes with borders edges and faces do not move in step.
+// Faces removed out of those to remove, as a fraction, to a callback.
+class CollapseProgress {
+ public:
+  CollapseProgress(const ProgressCallback& callback, std::size_t startFaces, std::size_t targetFaces)
+      : callback_(callback), startFaces_(startFaces), targetFaces_(targetFaces) {}
+
+  void reach(std::size_t faces) const {
+    if (!callback_ || startFaces_ <= targetFaces_) return;
+    const std::size_t removed = startFaces_ - std::max(std::min(faces, startFaces_), targetFaces_);
+    const int percent = static_cast<int>(100 * removed / (startFaces_ - targetFaces_));
+    if (percent <= lastPercent_) return;
+    lastPercent_ = percent;
+    callback_(percent / 100.0);
+  }
+
+ private:
+  const ProgressCallback& callback_;
+  std::size_t startFaces_, targetFaces_;
+  mutable int lastPercent_ = -1;
+};
+
+// Asked before every collapse; also reports the share of the faces to remove
+// that are gone, once per percent.
 struct FaceCountStop {
   const Mesh* mesh;
   std::size_t targetFaces;
+  const CollapseProgress* progress = nullptr;
 
   template <class Profile>
   bool operator()(const double& /*cost*/, const Profile& /*profile*/, std::size_t /*initialEdges*/,
                   std::size_t /*currentEdges*/) const {
+    if (progress) progress->reach(mesh->number_of_faces());
     return mesh->number_of_faces() <= targetFaces;
   }
 };
@@ -174,29 +199,31 @@ struct RidgeQuadricPlacement {
 };
 
 template <class Cost, class Placement>
-void collapseToFaceCount(Mesh& mesh, std::size_t targetFaces, const Cost& cost, const Placement& basePlacement) {
+void collapseToFaceCount(Mesh& mesh, std::size_t targetFaces, const CollapseProgress& progress, const Cost& cost,
+                         const Placement& basePlacement) {
   const BorderEdgeMap border{&mesh};
   const SMS::Constrained_placement<FloatRoundedPlacement<Placement>, BorderEdgeMap> placement(
       border, FloatRoundedPlacement<Placement>(basePlacement));
-  SMS::edge_collapse(mesh, FaceCountStop{&mesh, targetFaces},
+  SMS::edge_collapse(mesh, FaceCountStop{&mesh, targetFaces, &progress},
                      CGAL::parameters::get_cost(cost)
                          .get_placement(placement)
                          .edge_is_constrained_map(border)
                          .filter(NoDegenerateTriangleFilter{}));
 }
 
-void collapseWithPolicy(Mesh& mesh, std::size_t targetFaces, SimplifyPolicy policy) {
+void collapseWithPolicy(Mesh& mesh, std::size_t targetFaces, SimplifyPolicy policy, const CollapseProgress& progress) {
   switch (policy) {
     case SimplifyPolicy::GarlandHeckbert: {
       // The cost and placement copies share the per-vertex quadrics, which
       // edge_collapse keeps up to date through the cost object.
       using Quadrics = SMS::GarlandHeckbert_plane_policies<Mesh, Kernel>;
       const Quadrics quadrics(mesh);
-      collapseToFaceCount(mesh, targetFaces, quadrics.get_cost(), RidgeQuadricPlacement<Quadrics>{quadrics});
+      collapseToFaceCount(mesh, targetFaces, progress, quadrics.get_cost(), RidgeQuadricPlacement<Quadrics>{quadrics});
       return;
     }
     case SimplifyPolicy::LindstromTurk:
-      collapseToFaceCount(mesh, targetFaces, SMS::LindstromTurk_cost<Mesh>(), SMS::LindstromTurk_placement<Mesh>());
+      collapseToFaceCount(mesh, targetFaces, progress, SMS::LindstromTurk_cost<Mesh>(),
+                          SMS::LindstromTurk_placement<Mesh>());
       return;
   }
 }
@@ -264,9 +291,9 @@ std::uint64_t fillSmallHoles(Mesh& mesh) {
 // Border edges free: Garland-Heckbert's plane quadrics have no border term
 // and would pull borders inwards, Lindstrom-Turk's boundary preservation
 // keeps the border's shape.
-void collapseBordersToo(Mesh& mesh, std::size_t targetFaces) {
+void collapseBordersToo(Mesh& mesh, std::size_t targetFaces, const CollapseProgress& progress) {
   using Placement = SMS::LindstromTurk_placement<Mesh>;
-  SMS::edge_collapse(mesh, FaceCountStop{&mesh, targetFaces},
+  SMS::edge_collapse(mesh, FaceCountStop{&mesh, targetFaces, &progress},
                      CGAL::parameters::get_cost(SMS::LindstromTurk_cost<Mesh>())
                          .get_placement(FloatRoundedPlacement<Placement>(Placement()))
                          .filter(NoDegenerateTriangleFilter{}));
@@ -307,19 +334,21 @@ Scan scanFromMesh(Mesh& mesh) {
   return scan;
 }
 
-Result<EdgeCollapseResult> simplify(const Scan& input, std::uint64_t targetFaces, SimplifyPolicy policy) {
+Result<EdgeCollapseResult> simplify(const Scan& input, std::uint64_t targetFaces, SimplifyPolicy policy,
+                                    const ProgressCallback& onCollapsed) {
   Result<Soup> soup = soupFromScan(input);
   if (!soup) return soup.error();
   if (soup->triangles.empty()) return badInput("simplify: the mesh has no non-degenerate triangle");
   EdgeCollapseResult result;
   Result<Mesh> mesh = manifoldMesh(*soup, result.repairedVertices);
   if (!mesh) return mesh.error();
+  const CollapseProgress progress(onCollapsed, mesh->number_of_faces(), targetFaces);
   if (mesh->number_of_faces() > targetFaces) {
     result.filledHoles = fillSmallHoles(*mesh);
-    collapseWithPolicy(*mesh, targetFaces, policy);
+    collapseWithPolicy(*mesh, targetFaces, policy, progress);
   }
   if (aboveTarget(*mesh, targetFaces)) {
-    collapseBordersToo(*mesh, targetFaces);
+    collapseBordersToo(*mesh, targetFaces, progress);
     result.bordersCollapsed = true;
   }
   // The filter keeps collapses from making degenerate faces, but the input may
@@ -333,10 +362,11 @@ Result<EdgeCollapseResult> simplify(const Scan& input, std::uint64_t targetFaces
 
 }  // namespace
 
-Result<EdgeCollapseResult> edgeCollapse(const Scan& mesh, std::uint64_t targetFaces, SimplifyPolicy policy) {
+Result<EdgeCollapseResult> edgeCollapse(const Scan& mesh, std::uint64_t targetFaces, SimplifyPolicy policy,
+                                        const ProgressCallback& onCollapsed) {
   if (targetFaces == 0) return usageError("simplify: the target face count must be positive");
   try {
-    return simplify(mesh, targetFaces, policy);
+    return simplify(mesh, targetFaces, policy, onCollapsed);
   } catch (const std::exception& e) {
     return internalError("simplify: CGAL edge collapse failed: {}", e.what());
   } catch (...) {

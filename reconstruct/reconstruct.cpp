@@ -250,7 +250,11 @@ std::string methodName(ReconstructionMethod method) {
   return "unknown";
 }
 
-Result<Reconstruction> reconstructSurface(const PointSet& input, const ReconstructOptions& options) {
+// Rough shares of a reconstruction's time, for progress only.
+constexpr double kMethodStart = 0.1, kMethodEnd = 0.8, kCleanEnd = 0.9;
+
+Result<Reconstruction> reconstructSurface(const PointSet& input, const ReconstructOptions& options,
+                                          const ProgressCallback& onProgress) {
   APO_RETURN_IF_ERROR(validateOptions(options));
   APO_RETURN_IF_ERROR(validatePoints(input));
   Stopwatch watch;
@@ -272,6 +276,7 @@ Result<Reconstruction> reconstructSurface(const PointSet& input, const Reconstru
   const PointSet& points = subsample ? subsampled : input;
   report.pointsUsed = points.size();
   report.averageSpacing = cgal::averageSpacing(points.positions, options.spacingNeighbours);
+  reportProgress(onProgress, kMethodStart);
 
   report.method = methodName(method);
   if (options.method == ReconstructionMethod::Auto)
@@ -283,6 +288,7 @@ Result<Reconstruction> reconstructSurface(const PointSet& input, const Reconstru
   Scan& M = result.mesh;
   M = std::move(mesh).value();
   spdlog::info("reconstruct: {} produced {} triangles", report.method, M.triangles.size());
+  reportProgress(onProgress, kMethodEnd);
 
   const Removal removed = method == ReconstructionMethod::Poisson
                               ? trimFarFromSamples(M, points.positions, options.trim * report.averageSpacing)
@@ -299,14 +305,17 @@ Result<Reconstruction> reconstructSurface(const PointSet& input, const Reconstru
   const std::uint64_t flipped = orientLikeSamples(M, points);
   if (flipped > 0) spdlog::info("reconstruct: {} components turned to agree with the point normals", flipped);
   M.points.normals = areaWeightedVertexNormals(M);
+  reportProgress(onProgress, kCleanEnd);
   report.quality = measureMesh(M);
   measurePointDistances(input, M, report);
   report.seconds = watch.seconds();
+  reportProgress(onProgress, 1.0);
   return result;
 }
 
-Result<Reconstruction> reconstructScan(const Scan& scan, const ReconstructOptions& options) {
-  if (!scan.isMesh()) return reconstructSurface(scan.points, options);
+Result<Reconstruction> reconstructScan(const Scan& scan, const ReconstructOptions& options,
+                                       const ProgressCallback& onProgress) {
+  if (!scan.isMesh()) return reconstructSurface(scan.points, options, onProgress);
   APO_RETURN_IF_ERROR(validateOptions(options));
   Reconstruction adopted;
   adopted.mesh = scan;

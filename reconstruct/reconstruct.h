@@ -6,6 +6,7 @@
 
 #include "core/error.h"
 #include "core/geometry.h"
+#include "core/timing.h"
 
 #include <cstdint>
 #include <optional>
@@ -91,11 +92,15 @@ std::uint64_t defaultMaxPoints(ReconstructionMethod method);
 // Reconstructs M from points with oriented normals. BadInput when there are
 // too few points, no normals, or the points are all on a plane (Poisson), and
 // when CGAL produces no surface; Usage for out-of-range options.
-Result<Reconstruction> reconstructSurface(const PointSet& points, const ReconstructOptions& options);
+// `onProgress` hears the fraction done by phase (subsample and spacing, the
+// CGAL method, clean-up and measures): CGAL's methods report nothing inside.
+Result<Reconstruction> reconstructSurface(const PointSet& points, const ReconstructOptions& options,
+                                          const ProgressCallback& onProgress = {});
 
 // M for a scan: a mesh is adopted as it is (method "input-mesh", figures
 // measured), a point cloud is reconstructed.
-Result<Reconstruction> reconstructScan(const Scan& scan, const ReconstructOptions& options);
+Result<Reconstruction> reconstructScan(const Scan& scan, const ReconstructOptions& options,
+                                       const ProgressCallback& onProgress = {});
 
 enum class SimplifyPolicy { GarlandHeckbert, LindstromTurk };
 std::string policyName(SimplifyPolicy policy);
@@ -126,8 +131,10 @@ struct Simplification {
 };
 
 // Edge-collapse simplification of a triangle mesh to the target face count
-// (within 1%), borders kept. Deterministic.
-Result<Simplification> simplifyMesh(const Scan& mesh, const SimplifyOptions& options);
+// (within 1%), borders kept. Deterministic. `onProgress` hears the fraction
+// done: the collapses by faces removed, then the distance measures.
+Result<Simplification> simplifyMesh(const Scan& mesh, const SimplifyOptions& options,
+                                    const ProgressCallback& onProgress = {});
 
 // Figures of a mesh, counted on its triangles as a soup (sorted edge lists and
 // union-find), so that non-manifold input is measured, not refused.

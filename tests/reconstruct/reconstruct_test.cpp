@@ -8,6 +8,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 
@@ -134,6 +135,16 @@ TEST(ReconstructSurface, AutoPicksPoissonForClosedAndAdvancingFrontForOpen) {
   ASSERT_TRUE(open.ok()) << open.error().message;
   EXPECT_EQ(open->report.method, "advancing-front");
   EXPECT_EQ(open->report.quality.boundaryLoops, 1u);
+}
+
+TEST(ReconstructSurface, ReportsRisingProgressToTheEnd) {
+  std::vector<double> fractions;
+  auto result = reconstructSurface(sphereCap(0.5f), ReconstructOptions{}, [&](double f) { fractions.push_back(f); });
+  ASSERT_TRUE(result.ok()) << result.error().message;
+  ASSERT_GE(fractions.size(), 3u);  // after the spacing, after the method, after clean-up, the end
+  EXPECT_TRUE(std::is_sorted(fractions.begin(), fractions.end()));
+  EXPECT_GT(fractions.front(), 0.0);
+  EXPECT_EQ(fractions.back(), 1.0);
 }
 
 TEST(ReconstructSurface, TooFewPointsIsBadInput) {

@@ -6,6 +6,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -66,6 +67,23 @@ TEST(SimplifyMesh, RatioAndLindstromTurk) {
   EXPECT_EQ(result->report.targetFaces, 512u);
   EXPECT_NEAR(static_cast<double>(result->report.facesOut), 512.0, 5.2);
   EXPECT_EQ(result->report.policy, "lindstrom-turk");
+}
+
+// 5,120 faces to 512: the collapses report each percent of the 4,608 faces
+// to remove, rising, then the end; the result is the same as without.
+TEST(SimplifyMesh, ReportsRisingProgressAndTheSameMesh) {
+  SimplifyOptions options;
+  options.targetFaces = 512;
+  std::vector<double> fractions;
+  auto watched = simplifyMesh(test::makeIcosphere(4), options, [&](double f) { fractions.push_back(f); });
+  auto plain = simplifyMesh(test::makeIcosphere(4), options);
+  ASSERT_TRUE(watched.ok() && plain.ok());
+  EXPECT_EQ(watched->mesh.triangles, plain->mesh.triangles);
+  ASSERT_GE(fractions.size(), 50u);  // a report per percent of the collapses, at most 101 and the end
+  EXPECT_LE(fractions.size(), 102u);
+  EXPECT_TRUE(std::is_sorted(fractions.begin(), fractions.end()));
+  EXPECT_GE(fractions.front(), 0.0);
+  EXPECT_EQ(fractions.back(), 1.0);
 }
 
 TEST(SimplifyMesh, TargetNotBelowInputKeepsTheMeshAndSaysSo) {
