@@ -187,7 +187,6 @@ constexpr double kBuildStart = 0.05, kSamplingStart = 0.6, kEncodingStart = 0.95
 
 Result<Bake> bakeWith(const DetailSurface& detail, const Scan& coarse, const BakeOptions& options,
                       const ProgressCallback& onProgress) {
-  const auto progress = [&](double fraction) { reportProgress(onProgress, fraction); };
   APO_RETURN_IF_ERROR(validateOptions(options));
   APO_RETURN_IF_ERROR(validateInputs(detail, coarse));
   Stopwatch total;
@@ -210,7 +209,7 @@ Result<Bake> bakeWith(const DetailSurface& detail, const Scan& coarse, const Bak
   {
     const octree::DetailPrimitives primitives = detailForErrorMetric(detail, **coarseCaster, reach, transform);
     report.seconds.setup += phase.seconds();
-    progress(kBuildStart);
+    reportProgress(onProgress, kBuildStart);
     phase = Stopwatch();
     built = octree::buildOctree(coarseUnit, primitives, {options.coarseDepth, options.maxDepth, options.error});
   }
@@ -218,13 +217,14 @@ Result<Bake> bakeWith(const DetailSurface& detail, const Scan& coarse, const Bak
   report.seconds.build = phase.seconds();
   spdlog::info("bake: octree of {} nodes built in {:.2f} s", built.octree.nodes.size(), report.seconds.build);
 
-  progress(kSamplingStart);
+  reportProgress(onProgress, kSamplingStart);
   phase = Stopwatch();
   const sampling::SamplingSettings sampling{options.samples, reach};
   const sampling::SampleCounts counts = sampling::sampleNormalField(
       built, {&coarseUnit, &coarse.points.positions, &coarseNormals}, detail, sampling,
       [&](std::size_t done, std::size_t total) {
-        progress(kSamplingStart + (kEncodingStart - kSamplingStart) * static_cast<double>(done) / static_cast<double>(total));
+        reportProgress(onProgress, kSamplingStart + (kEncodingStart - kSamplingStart) * static_cast<double>(done) /
+                                                        static_cast<double>(total));
       });
   report.rays = counts.rays;
   report.hits = counts.hits;
@@ -248,7 +248,7 @@ Result<Bake> bakeWith(const DetailSurface& detail, const Scan& coarse, const Bak
   report.textureBytes = bake.texture.texels.size();
   report.totalSeconds = total.seconds();
   report.peakMemoryBytes = peakResidentBytes();
-  progress(1.0);
+  reportProgress(onProgress, 1.0);
   return bake;
 }
 

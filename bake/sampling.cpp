@@ -7,10 +7,9 @@
 
 #include <tbb/parallel_for.h>
 
-#include <atomic>
-
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 
 namespace apo::sampling {

@@ -261,11 +261,12 @@ int runBatch(CLI::App& app, const BatchCommand& command) {
     }
     if (running.empty()) continue;
     int status = 0;
-    const pid_t pid = waitpid(-1, &status, WNOHANG);
+    // With a time limit, poll so that a worker over it can be stopped; without, wait.
+    const pid_t pid = waitpid(-1, &status, command.scanTimeout > 0.0 ? WNOHANG : 0);
     if (pid < 0) return reportFailure(internalError("waiting for the workers: {}", std::strerror(errno)));
     if (pid == 0) {  // none ended: stop those over the time limit, then look again shortly
       for (auto& [workerPid, worker] : running)
-        if (command.scanTimeout > 0.0 && !worker.timedOut && worker.started.seconds() > command.scanTimeout) {
+        if (!worker.timedOut && worker.started.seconds() > command.scanTimeout) {
           kill(workerPid, SIGKILL);
           worker.timedOut = true;
         }
