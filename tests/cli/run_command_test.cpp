@@ -91,6 +91,40 @@ TEST(RunCommand, PointsAreReconstructedAndCanBeMThemselves) {
   EXPECT_THAT(result.output, HasSubstr(fmt::format("\"sha256\": \"{}\"", manifest["input"]["sha256"].get<std::string>())));
 }
 
+// Not on a terminal (the test reads a pipe): a log line as each stage
+// starts, passes each tenth and ends; --quiet: none of them.
+TEST(RunCommand, ProgressIsLogLinesOffATerminalAndQuietSilencesThem) {
+  const fs::path dir = test::freshTempDir();
+  const fs::path scan = writeMeshScan(dir / "sphere.ply");
+  const auto logged = apo(fmt::format("run '{}' -o '{}' {}", scan.string(), (dir / "logged").string(), kQuick));
+  ASSERT_EQ(logged.exitCode, 0) << logged.output;
+  for (const char* line : {"[1/6] ingest: started", "[2/6] reconstruct: skipped", "[3/6] simplify: 50%",
+                           "[4/6] bake: 60%", "[4/6] bake: 100%", "[5/6] render: 50%", "[6/6] report: started"})
+    EXPECT_THAT(logged.output, HasSubstr(line));
+  EXPECT_EQ(logged.output.find("\r"), std::string::npos);  // no live line redrawn in place
+
+  const auto quiet = apo(fmt::format("-q run '{}' -o '{}' {}", scan.string(), (dir / "quiet").string(), kQuick));
+  ASSERT_EQ(quiet.exitCode, 0) << quiet.output;
+  EXPECT_THAT(quiet.output, Not(HasSubstr("ingest: started")));
+  EXPECT_THAT(quiet.output, Not(HasSubstr("%")));
+  EXPECT_EQ(fileBytes(dir / "quiet" / "scan.apo"), fileBytes(dir / "logged" / "scan.apo"));
+}
+
+// On a terminal (script(1) gives the run a pseudo-terminal): one live line
+// per stage, redrawn in place, ending with the stage's time and memory.
+TEST(RunCommand, ProgressIsALiveLinePerStageOnATerminal) {
+  const fs::path dir = test::freshTempDir();
+  const fs::path scan = writeMeshScan(dir / "sphere.ply");
+  const auto live = test::runCommand(fmt::format("script -qec \"{} run '{}' -o '{}' {}\" /dev/null < /dev/null",
+                                                 test::apoExecutable().string(), scan.string(),
+                                                 (dir / "out").string(), kQuick));
+  ASSERT_EQ(live.exitCode, 0) << live.output;
+  EXPECT_NE(live.output.find('\r'), std::string::npos);
+  EXPECT_THAT(live.output, HasSubstr("[2/6] reconstruct skipped"));
+  EXPECT_THAT(live.output, testing::ContainsRegex("\\[4/6\\] bake +[0-9.]+ s, peak [0-9]+ MiB"));
+  EXPECT_THAT(live.output, Not(HasSubstr("ingest: started")));  // not the log lines
+}
+
 TEST(RunCommand, AConfigFileHoldsTheSameOptions) {
   const fs::path dir = test::freshTempDir();
   const fs::path scan = writeMeshScan(dir / "sphere.ply");
