@@ -15,8 +15,9 @@ PACKAGES=(
   # command line, formats, logging, hashing
   libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev libstb-dev libssl-dev
   # tests and benchmarks; headless Chromium and its WebDriver for the QA
-  # report's browser test (tests/report/browser_check.py)
-  libgtest-dev libgmock-dev libbenchmark-dev chromium chromium-driver
+  # report's browser test (tests/report/browser_check.py); clang and its
+  # runtime (libFuzzer, ASan, UBSan) for the fuzzers (fuzz/run.sh)
+  libgtest-dev libgmock-dev libbenchmark-dev chromium chromium-driver clang libclang-rt-14-dev
   # dataset scripts (bunzip2 for the octomap scan)
   bzip2 xz-utils
 )

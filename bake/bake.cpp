@@ -4,16 +4,13 @@
 
 #include "bake/sampling.h"
 #include "core/timing.h"
-#include "ingest/ingest.h"
 
 #include <spdlog/spdlog.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cmath>
-#include <mutex>
 #include <numeric>
-#include <stdexcept>
 
 namespace apo {
 namespace {
@@ -24,7 +21,9 @@ constexpr int kDeepestDepth = 16;
 constexpr int kDeepestCoarseDepth = 10;  // a complete grid of 2^30 cells is the limit
 constexpr int kMostSamples = 64;
 
-Status validateOptions(const BakeOptions& o) {
+}  // namespace
+
+Status validateBakeOptions(const BakeOptions& o) {
   if (o.coarseDepth < 0 || o.coarseDepth > kDeepestCoarseDepth)
     return usageError("--coarse-depth must be in [0, {}], got {}", kDeepestCoarseDepth, o.coarseDepth);
   if (o.maxDepth < o.coarseDepth || o.maxDepth > kDeepestDepth)
@@ -39,22 +38,33 @@ Status validateOptions(const BakeOptions& o) {
   return okStatus();
 }
 
+namespace {
+
 bool allFinite(const std::vector<Vec3f>& vectors) {
   return std::all_of(vectors.begin(), vectors.end(), [](const Vec3f& v) { return v.allFinite(); });
 }
 
-Status validateInputs(const DetailSurface& detail, const Scan& coarse) {
+}  // namespace
+
+Status validateBakeInputs(const Scan& detail, const Scan& coarse) {
   if (!coarse.isMesh())
     return badInput("the coarse mesh m has no triangles ({} points): bake needs a triangle mesh", coarse.points.size());
   if (!allFinite(coarse.points.positions)) return badInput("the coarse mesh m has a non-finite vertex");
   if (boundingBox(coarse.points.positions).diagonal() <= 0.0f) return badInput("the coarse mesh m has no extent");
+  if (detail.points.size() == 0) return badInput("the detail surface M is empty");
+  if (detail.points.normals.size() != detail.points.size())
+    return badInput("the detail surface M has no normals: run `apo ingest` on a point cloud first");
+  if (!allFinite(detail.points.positions) || !allFinite(detail.points.normals))
+    return badInput("the detail surface M has a non-finite position or normal");
+  return okStatus();
+}
+
+namespace {
+
+Status validateSeams(const DetailSurface& detail, const CoarseSurface& coarse) {
+  if (!coarse.mesh || !coarse.caster) return internalError("bake: the coarse surface is incomplete");
   if (!detail.detail || !detail.caster || !detail.closest) return internalError("bake: the detail surface is incomplete");
   const Scan& M = *detail.detail;
-  if (M.points.size() == 0) return badInput("the detail surface M is empty");
-  if (M.points.normals.size() != M.points.size())
-    return badInput("the detail surface M has no normals: run `apo ingest` on a point cloud first");
-  if (!allFinite(M.points.positions) || !allFinite(M.points.normals))
-    return badInput("the detail surface M has a non-finite position or normal");
   if (!M.isMesh() && !detail.pointAreas.empty() && detail.pointAreas.size() != M.points.size())
     return internalError("bake: {} point areas for {} points", detail.pointAreas.size(), M.points.size());
   return okStatus();
@@ -147,30 +157,6 @@ octree::DetailPrimitives detailForErrorMetric(const DetailSurface& surface, cons
   return detail;
 }
 
-// FLANN's k-d tree over M takes longer to build than Embree's BVH and is
-// needed only when both rays of a sample miss M (none do on a good m): it is
-// built on the first miss.
-class ClosestPointOnFirstMiss final : public ClosestPointFinder {
- public:
-  explicit ClosestPointOnFirstMiss(const Scan& detail) : detail_(detail) {}
-
-  SurfacePoint closest(const Vec3f& query) const override {
-    std::call_once(built_, [this] {
-      auto made = makeFlannClosestPoint(detail_);
-      if (made) finder_ = std::move(made).value();
-      else failure_ = made.error().message;
-    });
-    if (!finder_) throw std::runtime_error("bake: closest-point search over M unavailable: " + failure_);
-    return finder_->closest(query);
-  }
-
- private:
-  const Scan& detail_;
-  mutable std::once_flag built_;
-  mutable std::unique_ptr<ClosestPointFinder> finder_;
-  mutable std::string failure_;
-};
-
 void countNodes(const Octree& octree, BakeReport& report) {
   for (const OctreeNode& node : octree.nodes) {
     if (report.nodesPerDepth.size() <= node.depth) report.nodesPerDepth.resize(node.depth + 1, 0);
@@ -185,10 +171,12 @@ void countNodes(const Octree& octree, BakeReport& report) {
 // octree build 55%, sampling 35%, encoding 5%; only for progress.
 constexpr double kBuildStart = 0.05, kSamplingStart = 0.6, kEncodingStart = 0.95;
 
-Result<Bake> bakeWith(const DetailSurface& detail, const Scan& coarse, const BakeOptions& options,
+Result<Bake> bakeWith(const DetailSurface& detail, const CoarseSurface& coarseSurface, const BakeOptions& options,
                       const ProgressCallback& onProgress) {
-  APO_RETURN_IF_ERROR(validateOptions(options));
-  APO_RETURN_IF_ERROR(validateInputs(detail, coarse));
+  APO_RETURN_IF_ERROR(validateBakeOptions(options));
+  APO_RETURN_IF_ERROR(validateSeams(detail, coarseSurface));
+  APO_RETURN_IF_ERROR(validateBakeInputs(*detail.detail, *coarseSurface.mesh));
+  const Scan& coarse = *coarseSurface.mesh;
   Stopwatch total;
   Bake bake;
   BakeReport& report = bake.report;
@@ -203,11 +191,9 @@ Result<Bake> bakeWith(const DetailSurface& detail, const Scan& coarse, const Bak
   const std::vector<Vec3f> coarseNormals =
       coarse.points.normals.size() == coarse.points.size() ? coarse.points.normals : areaWeightedVertexNormals(coarse);
   const float reach = static_cast<float>(options.maxDistance * box.diagonal());
-  auto coarseCaster = makeEmbreeMeshCaster(coarse);
-  if (!coarseCaster) return coarseCaster.error();
   octree::BuiltOctree built;
   {
-    const octree::DetailPrimitives primitives = detailForErrorMetric(detail, **coarseCaster, reach, transform);
+    const octree::DetailPrimitives primitives = detailForErrorMetric(detail, *coarseSurface.caster, reach, transform);
     report.seconds.setup += phase.seconds();
     reportProgress(onProgress, kBuildStart);
     phase = Stopwatch();
@@ -226,6 +212,9 @@ Result<Bake> bakeWith(const DetailSurface& detail, const Scan& coarse, const Bak
         reportProgress(onProgress, kSamplingStart + (kEncodingStart - kSamplingStart) * static_cast<double>(done) /
                                                         static_cast<double>(total));
       });
+  if (counts.unanswered > 0)
+    return internalError("bake: the closest-point search over M failed for {} of {} samples whose rays missed M",
+                         counts.unanswered, counts.unanswered + counts.fallbacks);
   report.rays = counts.rays;
   report.hits = counts.hits;
   report.fallbacks = counts.fallbacks;
@@ -249,37 +238,6 @@ Result<Bake> bakeWith(const DetailSurface& detail, const Scan& coarse, const Bak
   report.totalSeconds = total.seconds();
   report.peakMemoryBytes = peakResidentBytes();
   reportProgress(onProgress, 1.0);
-  return bake;
-}
-
-Result<Bake> bakeApo(const Scan& detail, const Scan& coarse, const BakeOptions& options, const ProgressCallback& onProgress) {
-  APO_RETURN_IF_ERROR(validateOptions(options));
-  Stopwatch setup;
-  Scan M = detail;
-  if (M.isMesh() && M.points.normals.size() != M.points.size()) M.points.normals = areaWeightedVertexNormals(M);
-  if (!M.isMesh() && !M.points.hasNormals())
-    return badInput("the detail points have no normals: run `apo ingest` first, which estimates and orients them");
-  DetailSurface surface;
-  surface.detail = &M;
-  Result<std::unique_ptr<RayCaster>> caster = internalError("no caster");
-  if (M.isMesh()) {
-    caster = makeEmbreeMeshCaster(M);
-  } else {
-    const std::vector<float> radii = discRadii(M.points);
-    caster = makeEmbreeDiscCaster(M.points, radii);
-    for (const float r : radii) surface.pointAreas.push_back(r * r);
-  }
-  if (!caster) return caster.error();
-  const ClosestPointOnFirstMiss closest(M);
-  surface.caster = caster->get();
-  surface.closest = &closest;
-  const double setupSeconds = setup.seconds();
-  spdlog::info("bake: Embree BVH over {} {} in {:.2f} s", M.isMesh() ? M.triangles.size() : M.points.size(),
-               M.isMesh() ? "triangles" : "points", setupSeconds);
-  auto bake = bakeWith(surface, coarse, options, onProgress);
-  if (!bake) return bake;
-  bake->report.seconds.setup += setupSeconds;
-  bake->report.totalSeconds += setupSeconds;
   return bake;
 }
 

@@ -5,12 +5,15 @@
 // mean of its samples weighted by the area of t inside C.
 #include "bake/sampling.h"
 
+#include "core/triangle_geometry.h"
+
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <array>
 #include <atomic>
 #include <cmath>
+#include <optional>
 
 namespace apo::sampling {
 namespace {
@@ -96,7 +99,7 @@ class LeafSampler {
       const double clippedArea = inside.size() >= 3 ? octree::polygonArea(inside) : 0.0;
       area += clippedArea;
       if (settings_.samples == 1 || inside.size() < 3) {
-        samples.push_back({leafSlot, t, closestPointBarycentrics(cell.centre, a, b, c), clippedArea});
+        samples.push_back({leafSlot, t, closestPointOnTriangle(cell.centre, a, b, c).weights, clippedArea});
         continue;
       }
       for (const Vec3f& p : stratifiedPoints(inside, settings_.samples))
@@ -177,37 +180,6 @@ void averageInternalNodes(Octree& octree) {
 
 }  // namespace
 
-Eigen::Vector3f closestPointBarycentrics(const Vec3f& p, const Vec3f& a, const Vec3f& b, const Vec3f& c) {
-  const Vec3f ab = b - a, ac = c - a, ap = p - a;
-  const float d1 = ab.dot(ap), d2 = ac.dot(ap);
-  if (d1 <= 0.0f && d2 <= 0.0f) return {1, 0, 0};
-  const Vec3f bp = p - b;
-  const float d3 = ab.dot(bp), d4 = ac.dot(bp);
-  if (d3 >= 0.0f && d4 <= d3) return {0, 1, 0};
-  const float vc = d1 * d4 - d3 * d2;
-  if (vc <= 0.0f && d1 >= 0.0f && d3 <= 0.0f) {
-    const float v = d1 / (d1 - d3);
-    return {1 - v, v, 0};
-  }
-  const Vec3f cp = p - c;
-  const float d5 = ab.dot(cp), d6 = ac.dot(cp);
-  if (d6 >= 0.0f && d5 <= d6) return {0, 0, 1};
-  const float vb = d5 * d2 - d1 * d6;
-  if (vb <= 0.0f && d2 >= 0.0f && d6 <= 0.0f) {
-    const float w = d2 / (d2 - d6);
-    return {1 - w, 0, w};
-  }
-  const float va = d3 * d6 - d5 * d4;
-  if (va <= 0.0f && (d4 - d3) >= 0.0f && (d5 - d6) >= 0.0f) {
-    const float w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-    return {0, 1 - w, w};
-  }
-  const float denominator = va + vb + vc;
-  if (!(denominator > 0.0f)) return {1, 0, 0};  // degenerate triangle
-  const float v = vb / denominator, w = vc / denominator;
-  return {1 - v - w, v, w};
-}
-
 SampleCounts sampleNormalField(octree::BuiltOctree& built, const CoarseFrames& coarse, const DetailSurface& detail,
                                const SamplingSettings& settings,
                                const std::function<void(std::size_t, std::size_t)>& onChunkDone) {
@@ -250,7 +222,12 @@ SampleCounts sampleNormalField(octree::BuiltOctree& built, const CoarseFrames& c
         normal = sampler.normalAt(nearest);
         ++count.hits;
       } else {
-        normal = detail.closest->closest(sampler.originOf(samples[k])).normal;
+        const std::optional<SurfacePoint> closest = detail.closest->closest(sampler.originOf(samples[k]));
+        if (!closest) {
+          ++count.unanswered;
+          continue;
+        }
+        normal = closest->normal;
         ++count.fallbacks;
       }
       weighted[samples[k].leaf] += samples[k].weight * normal.cast<double>();
@@ -270,6 +247,7 @@ SampleCounts sampleNormalField(octree::BuiltOctree& built, const CoarseFrames& c
     total.rays += c.rays;
     total.hits += c.hits;
     total.fallbacks += c.fallbacks;
+    total.unanswered += c.unanswered;
   }
   return total;
 }

@@ -15,6 +15,7 @@ struct SamplingSettings {
 
 struct SampleCounts {
   std::uint64_t rays = 0, hits = 0, fallbacks = 0;
+  std::uint64_t unanswered = 0;  // samples whose closest-point fallback failed (they count for nothing)
 };
 
 // m in both frames: unit-cube positions for the cells, world positions and
@@ -34,9 +35,5 @@ struct CoarseFrames {
 SampleCounts sampleNormalField(octree::BuiltOctree& built, const CoarseFrames& coarse, const DetailSurface& detail,
                                const SamplingSettings& settings,
                                const std::function<void(std::size_t, std::size_t)>& onChunkDone = {});
-
-// Closest point of triangle abc to p, as barycentric weights of a, b, c
-// (Ericson, Real-Time Collision Detection, 5.1.5).
-Eigen::Vector3f closestPointBarycentrics(const Vec3f& p, const Vec3f& a, const Vec3f& b, const Vec3f& c);
 
 }  // namespace apo::sampling

@@ -4,7 +4,8 @@
 // next to m's own interpolated normal (the bare baseline).
 //   apo_accuracy M.ply m.ply scan.apo [samples=200000]
 // Prints mean, median and 95th percentile angular errors in degrees.
-#include "bake/bake.h"
+#include "adapters/flann/flann_search.h"
+#include "format/format.h"
 #include "ingest/ingest.h"
 
 #include <fmt/format.h>
@@ -94,7 +95,7 @@ int run(int argc, char** argv) {
     const float w = 1.0f - s.u - s.v;
     const Vec3f point = w * p[t[0]] + s.u * p[t[1]] + s.v * p[t[2]];
     const Vec3f bare = w * coarseNormals[t[0]] + s.u * coarseNormals[t[1]] + s.v * coarseNormals[t[2]];
-    const Vec3f truth = (*closest)->closest(point).normal;
+    const Vec3f truth = (*closest)->closest(point).value().normal;
     const apo::Lookup found = apo::lookupTexture(*texture, texture->transform.toUnit(point));
     if (!found.found) ++outside;
     apoErrors.push_back(found.found ? degreesBetween(found.normal, truth) : 180.0);

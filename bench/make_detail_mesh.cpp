@@ -28,6 +28,7 @@
 //       samples). Also m's own normal against both (the error without the
 //       APO). Prints one JSON object.
 #include "core/geometry.h"
+#include "adapters/embree/embree_ray_caster.h"
 #include "ingest/ingest.h"
 
 #include <CGAL/AABB_traits.h>

@@ -2,8 +2,8 @@
 // directions uniform on the sphere (fixed seed): xyz8, oct24 with plain
 // rounding, and oct24 with the precise encoder encodeNormal uses. Prints a
 // markdown table for docs/benchmarks.md.
-#include "bake/bake.h"
-#include "bake/octahedral.h"
+#include "format/format.h"
+#include "format/octahedral.h"
 
 #include <fmt/format.h>
 
@@ -43,7 +43,7 @@ struct Row {
   const char* name;
   std::function<std::array<std::uint8_t, 3>(const Vec3f&)> encode;
   NormalEncoding decodeAs;
-  double boundRadians;  // the analytic bound of tests/bake/normal_encoding_test.cpp
+  double boundRadians;  // the analytic bound of tests/format/normal_encoding_test.cpp
 };
 
 void printRow(const Row& row, const std::vector<Eigen::Vector3d>& directions) {

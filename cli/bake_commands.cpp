@@ -1,10 +1,8 @@
 // `apo bake` (M and m to the APO: scan.apo, texture.png, bake.json) and
 // `apo lookup` (the APO's normals at given points, without the renderer).
-#include "bake/bake.h"
 #include "cli/command_support.h"
 #include "cli/stage_options.h"
 #include "core/file_io.h"
-#include "ingest/ingest.h"
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -23,6 +21,7 @@ struct BakeCommand {
 };
 
 int runBake(const BakeCommand& command) {
+  if (Status valid = validateBakeOptions(command.arguments.options); !valid.ok()) return reportFailure(valid.error());
   const auto threads = limitThreads(command.arguments.threads);
   auto detail = readScan(command.detail);
   if (!detail) return reportFailure(detail.error());

@@ -4,6 +4,7 @@
 
 #include "cli/commands.h"
 #include "core/error.h"
+#include "core/file_io.h"
 
 #include <spdlog/spdlog.h>
 #include <tbb/global_control.h>
@@ -48,8 +49,5 @@ inline std::optional<tbb::global_control> limitThreads(int threads) {
   return std::make_optional<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
                                                  static_cast<std::size_t>(threads));
 }
-
-// A stage's error about an input, prefixed with the input's path.
-inline Error aboutInput(const std::filesystem::path& input, const Error& error) { return {error.kind, input.string() + ": " + error.message}; }
 
 }  // namespace apo::cli

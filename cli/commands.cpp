@@ -1,13 +1,10 @@
-#include "cli/commands.h"
-
+// `apo ingest`, `apo simulate-scan`, `apo reconstruct`, `apo simplify`: one
+// stage each, from files to files.
 #include "cli/command_support.h"
 #include "cli/stage_options.h"
-
 #include "core/error.h"
-#include "core/timing.h"
 #include "core/file_io.h"
-#include "ingest/ingest.h"
-#include "reconstruct/reconstruct.h"
+#include "core/timing.h"
 
 #include <spdlog/spdlog.h>
 
@@ -32,6 +29,7 @@ struct IngestCommand {
 
 int runIngest(IngestCommand command) {
   command.arguments.apply();
+  if (Status valid = validateIngestOptions(command.arguments.options); !valid.ok()) return reportFailure(valid.error());
   auto result = ingestScan(command.input, command.arguments.options);
   if (!result) return reportFailure(result.error());
   if (Status written = writeIngestOutputs(command.outDir, *result); !written.ok()) return reportFailure(written.error());
@@ -49,11 +47,12 @@ struct SimulateScanCommand {
 };
 
 int runSimulateScan(const SimulateScanCommand& command) {
+  if (Status valid = validateSimulateScanOptions(command.options); !valid.ok()) return reportFailure(valid.error());
   auto mesh = readScan(command.mesh);
   if (!mesh) return reportFailure(mesh.error());
   if (!mesh->isMesh()) return reportFailure(badInput("{}: simulate-scan needs a triangle mesh, the file has only points", command.mesh.string()));
-  auto simulated = simulateScan(*mesh, command.options);
-  if (!simulated) return reportFailure(simulated.error());
+  auto simulated = simulateRangeScan(*mesh, command.options);
+  if (!simulated) return reportFailure(aboutInput(command.mesh, simulated.error()));
   if (Status written = writePly(command.output, simulated->scan); !written.ok()) return reportFailure(written.error());
   spdlog::info("simulate-scan: {} points from {} views -> {}", simulated->scan.points.size(), command.options.views,
                command.output.string());
@@ -67,6 +66,7 @@ struct ReconstructCommand {
 };
 
 int runReconstruct(const ReconstructCommand& command) {
+  if (Status valid = validateReconstructOptions(command.options); !valid.ok()) return reportFailure(valid.error());
   auto scan = readScan(command.input);
   if (!scan) return reportFailure(scan.error());
   auto reconstruction = reconstructScan(*scan, command.options);
@@ -90,6 +90,7 @@ struct SimplifyCommand {
 
 int runSimplify(SimplifyCommand command) {
   command.arguments.apply();
+  if (Status valid = validateSimplifyOptions(command.arguments.options); !valid.ok()) return reportFailure(valid.error());
   auto mesh = readScan(command.input);
   if (!mesh) return reportFailure(mesh.error());
   auto simplified = simplifyMesh(*mesh, command.arguments.options);
@@ -128,7 +129,7 @@ void addSimplifyCommand(CLI::App& app, int& exitCode) {
 void addIngestCommand(CLI::App& app, int& exitCode) {
   auto command = std::make_shared<IngestCommand>();
   CLI::App* sub = app.add_subcommand("ingest", "Read, validate and clean a scan; estimate and orient normals");
-  sub->add_option("input", command->input, "Scan file (.ply .pcd .xyz .xyzn .pts .pwn .off .obj .stl)")->required();
+  sub->add_option("input", command->input, "Scan file (" + scanExtensionList() + ")")->required();
   sub->add_option("-o,--out", command->outDir, "Output folder (scan.ply, ingest.json)")->required();
   addIngestOptions(*sub, command->arguments);
   sub->callback([command, &exitCode] { exitCode = guarded([&] { return runIngest(*command); }); });
@@ -145,7 +146,7 @@ void addSimulateScanCommand(CLI::App& app, int& exitCode) {
   sub->add_option("--noise", o.rangeNoise, "Range noise std-dev, fraction of the bbox diagonal")->capture_default_str();
   sub->add_option("--misregistration", o.misregistration, "Per-view rigid error, fraction of the diagonal")
       ->capture_default_str();
-  sub->add_option("--seed", o.seed, "Random seed")->capture_default_str();
+  sub->add_option("--seed", o.seed, "Random seed")->check(CLI::NonNegativeNumber)->capture_default_str();
   sub->add_flag("--normals", o.withNormals, "Write the true surface normals too");
   sub->callback([command, &exitCode] { exitCode = guarded([&] { return runSimulateScan(*command); }); });
 }

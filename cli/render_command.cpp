@@ -1,11 +1,8 @@
 // `apo render`: m with the APO next to M (the reference) and m alone, per
 // view: shaded PNGs, normal buffers (PFM), error heat maps and render.json.
-#include "bake/bake.h"
 #include "cli/command_support.h"
 #include "cli/stage_options.h"
 #include "core/file_io.h"
-#include "ingest/ingest.h"
-#include "render/render.h"
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -41,6 +38,7 @@ Status checkTransformMatches(const fs::path& apoPath, const ApoTexture& texture,
 int runRender(RenderCommand command) {
   command.arguments.apply();
   const RenderOptions& options = command.arguments.options;
+  if (Status valid = validateRenderOptions(options); !valid.ok()) return reportFailure(valid.error());
   auto texture = readApoFile(command.apo);
   if (!texture) return reportFailure(texture.error());
   auto coarse = readScan(command.coarse);

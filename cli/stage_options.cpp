@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <functional>
 #include <map>
 
 namespace apo::cli {
@@ -14,6 +16,18 @@ std::string choicesOf(const Map& choices) {
   std::string names;
   for (const auto& [name, value] : choices) names += (names.empty() ? "" : ",") + name;
   return "{" + names + "}";
+}
+
+// Unsigned options: CLI11 would read "-5" as 2^64 - 5.
+const CLI::Validator kNotNegative = CLI::NonNegativeNumber.description("");
+
+// The options added by `add` go under `group` in --help.
+template <class Add>
+void addGroup(CLI::App& app, const std::string& group, Add&& add) {
+  const std::size_t before = app.get_options().size();
+  add();
+  std::vector<CLI::Option*> options = app.get_options(std::function<bool(CLI::Option*)>{});
+  for (std::size_t i = before; i < options.size(); ++i) options[i]->group(group);
 }
 
 }  // namespace
@@ -59,6 +73,7 @@ void addReconstructOptions(CLI::App& app, ReconstructOptions& o) {
   app.add_option_function<std::uint64_t>(
          "--max-points", [&o](const std::uint64_t& value) { o.maxPoints = value; },
          "Reconstruct from a density-aware subsample above this many points (0: never)")
+      ->check(kNotNegative)
       ->default_str(fmt::format("{} for poisson, {} for the others", defaultMaxPoints(ReconstructionMethod::Poisson),
                                 defaultMaxPoints(ReconstructionMethod::AdvancingFront)));
   app.add_option("--trim", o.trim, "Poisson: drop triangles farther than this many average spacings from the points")
@@ -74,11 +89,12 @@ void addReconstructOptions(CLI::App& app, ReconstructOptions& o) {
   app.add_option("--poisson-radius", o.poissonRadius, "Poisson triangle size bound in spacings (CGAL's default: 30)")
       ->capture_default_str();
   app.add_option("--scale", o.scaleSpaceScale, "Scale-space smoothing scale in spacings (0: 4)")->capture_default_str();
-  app.add_option("--seed", o.seed, "Seed of CGAL's random generator")->capture_default_str();
+  app.add_option("--seed", o.seed, "Seed of CGAL's random generator")->check(kNotNegative)->capture_default_str();
 }
 
 void addSimplifyOptions(CLI::App& app, SimplifyArguments& arguments) {
-  auto* faces = app.add_option("--faces", arguments.options.targetFaces, "Target face count")->capture_default_str();
+  auto* faces =
+      app.add_option("--faces", arguments.options.targetFaces, "Target face count")->check(kNotNegative)->capture_default_str();
   app.add_option("--ratio", arguments.options.ratio, "Target as a fraction of the input faces, in (0, 1]")->excludes(faces);
   app.add_option("--policy", arguments.policy, "gh: Garland-Heckbert quadrics (the paper's), lt: Lindstrom-Turk")
       ->check(CLI::IsMember({"gh", "lt"}))
@@ -120,6 +136,53 @@ void addRenderOptions(CLI::App& app, RenderArguments& arguments) {
   app.add_option("--frames", o.timedFrames, "Frames timed per pass and view (median); 0: no timing")
       ->check(CLI::Range(0, 1000))
       ->capture_default_str();
+}
+
+void addStageOptionGroups(CLI::App& app, StageArguments& arguments) {
+  app.add_option("--detail-source", arguments.detailSource,
+                 "M for the bake and the reference renders: mesh (the reconstructed dense mesh, or the input mesh) or "
+                 "points (the scan's points with their normals)")
+      ->check(CLI::IsMember({"mesh", "points"}))
+      ->capture_default_str();
+  addGroup(app, "Ingest", [&] { addIngestOptions(app, arguments.ingest); });
+  addGroup(app, "Reconstruct", [&] { addReconstructOptions(app, arguments.reconstruct); });
+  addGroup(app, "Simplify", [&] { addSimplifyOptions(app, arguments.simplify); });
+  addGroup(app, "Bake", [&] { addBakeOptions(app, arguments.bake); });
+  addGroup(app, "Render", [&] { addRenderOptions(app, arguments.render); });
+  app.add_option("--config", arguments.configFile,
+                 "TOML file holding any of these options by name, without dashes (`faces = 5000`); the command line wins");
+}
+
+RunOptions runOptionsFrom(StageArguments arguments) {
+  arguments.ingest.apply();
+  arguments.simplify.apply();
+  arguments.render.apply();
+  RunOptions options;
+  options.detailSource = arguments.detailSource == "points" ? DetailSource::Points : DetailSource::Mesh;
+  options.ingest = arguments.ingest.options;
+  options.reconstruct = arguments.reconstruct;
+  options.simplify = arguments.simplify.options;
+  options.bake = arguments.bake.options;
+  options.render = arguments.render.options;
+  return options;
+}
+
+std::vector<std::string> givenStageArguments(const CLI::App& app) {
+  // Not stage options: where outputs go, how the batch itself runs, and what
+  // the worker is given anyway (its threads) or has already been applied
+  // (the config file's options are among the given ones).
+  static const std::vector<std::string> kNotPassed = {"--out", "--jobs", "--threads", "--config", "--help", "--scan-timeout"};
+  std::vector<std::string> arguments;
+  for (const CLI::Option* option : app.get_options()) {
+    const std::string name = option->get_name();
+    if (option->count() == 0 || name.rfind("--", 0) != 0 ||
+        std::find(kNotPassed.begin(), kNotPassed.end(), name) != kNotPassed.end())
+      continue;
+    arguments.push_back(name);
+    if (!isFlag(*option))
+      for (const std::string& value : option->results()) arguments.push_back(value);
+  }
+  return arguments;
 }
 
 }  // namespace apo::cli

@@ -1,15 +1,16 @@
 // Each stage's command-line options, registered on any CLI11 app or option
 // group: the stage's own subcommand and `apo run` / `apo batch` (one group
 // per stage) share them, so their names, defaults and help never drift.
+// Values fill the stages' option structs; the stages validate them
+// (validate*Options), and `apo run` / `apo batch` validate them all before
+// any stage runs.
 #pragma once
 
-#include "bake/bake.h"
-#include "ingest/ingest.h"
-#include "reconstruct/reconstruct.h"
-#include "render/render.h"
+#include "pipeline/pipeline.h"
 
 #include <CLI/CLI.hpp>
 
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -53,5 +54,33 @@ void addReconstructOptions(CLI::App& app, ReconstructOptions& options);
 void addSimplifyOptions(CLI::App& app, SimplifyArguments& arguments);
 void addBakeOptions(CLI::App& app, BakeArguments& arguments);
 void addRenderOptions(CLI::App& app, RenderArguments& arguments);
+
+// The stage options of `apo run` and `apo batch`: one group per stage in
+// --help, --detail-source and --config (TOML).
+struct StageArguments {
+  std::string detailSource = "mesh";
+  IngestArguments ingest;
+  ReconstructOptions reconstruct;
+  SimplifyArguments simplify;
+  BakeArguments bake;
+  RenderArguments render = reportRenderArguments();
+  std::filesystem::path configFile;  // --config
+
+  // The QA report's renders (pipeline.h reportRenderOptions), filtered unless
+  // told --no-filter.
+  static RenderArguments reportRenderArguments() {
+    RenderArguments render;
+    render.options = reportRenderOptions();
+    render.filterByDefault = true;
+    return render;
+  }
+};
+
+void addStageOptionGroups(CLI::App& app, StageArguments& arguments);
+// The run's options from parsed arguments.
+RunOptions runOptionsFrom(StageArguments arguments);
+// The stage options given to `app` (on the command line or by --config), as
+// arguments for `apo run`, in the order they were registered.
+std::vector<std::string> givenStageArguments(const CLI::App& app);
 
 }  // namespace apo::cli

@@ -9,7 +9,11 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <exception>
+#include <new>
 #include <string>
+#include <string_view>
+#include <type_traits>
 #include <utility>
 #include <variant>
 
@@ -52,7 +56,8 @@ class [[nodiscard]] Result {
 
   T& value() & { return std::get<0>(state_); }
   const T& value() const& { return std::get<0>(state_); }
-  T&& value() && { return std::get<0>(std::move(state_)); }
+  // By value: `for (x : f().value())` must not refer into a dead temporary.
+  T value() && { return std::get<0>(std::move(state_)); }
   T* operator->() { return &value(); }
   const T* operator->() const { return &value(); }
   T& operator*() & { return value(); }
@@ -67,6 +72,45 @@ class [[nodiscard]] Result {
 struct Ok {};
 using Status = Result<Ok>;
 inline Status okStatus() { return Ok{}; }
+
+namespace detail {
+template <class T>
+struct AsResult {
+  using type = Result<T>;
+};
+template <class T>
+struct AsResult<Result<T>> {
+  using type = Result<T>;
+};
+template <>
+struct AsResult<void> {
+  using type = Status;
+};
+}  // namespace detail
+
+// Runs `body`, a call into a third-party library (CGAL, PCL, FLANN, Embree,
+// TBB), and turns any exception it throws into an Internal error naming
+// `what`. The adapters wrap every library call in it, so that no library
+// exception reaches a stage or unwinds through a worker thread. `body` may
+// return a value, a Result or nothing.
+template <class Body>
+auto catchLibraryErrors(std::string_view what, Body&& body) ->
+    typename detail::AsResult<std::invoke_result_t<Body>>::type {
+  try {
+    if constexpr (std::is_void_v<std::invoke_result_t<Body>>) {
+      body();
+      return okStatus();
+    } else {
+      return body();
+    }
+  } catch (const std::bad_alloc&) {
+    return internalError("{}: out of memory", what);
+  } catch (const std::exception& exception) {
+    return internalError("{}: {}", what, exception.what());
+  } catch (...) {
+    return internalError("{}: an unknown exception", what);
+  }
+}
 
 }  // namespace apo
 

@@ -29,6 +29,11 @@ Status writeFileAtomically(const std::filesystem::path& path,
                            const std::function<Status(std::ostream&)>& writeBody);
 Status writeFileAtomically(const std::filesystem::path& path, std::string_view bytes);
 
+// A stage's error about an input file, its message prefixed with the path.
+inline Error aboutInput(const std::filesystem::path& input, const Error& error) {
+  return {error.kind, input.string() + ": " + error.message};
+}
+
 // Lower-case hex SHA-256 of a file's bytes, streamed (constant memory).
 Result<std::string> sha256OfFile(const std::filesystem::path& path);
 // Lower-case hex SHA-256 of a byte string.

@@ -1,57 +1,12 @@
 #include "ingest/cleaning.h"
 
+#include "core/mesh_edit.h"
+
 #include <algorithm>
 #include <cmath>
 #include <numeric>
 
 namespace apo::cleaning {
-namespace {
-
-template <class T>
-void compact(std::vector<T>& values, const std::vector<char>& keep) {
-  if (values.empty()) return;
-  std::size_t out = 0;
-  for (std::size_t i = 0; i < values.size(); ++i)
-    if (keep[i]) values[out++] = values[i];
-  values.resize(out);
-}
-
-// Rewrites triangle indices through `newIndex` and drops triangles that use
-// a vertex mapped to kRemoved.
-constexpr std::uint32_t kRemoved = ~0u;
-void remapTriangles(std::vector<Triangle>& triangles, const std::vector<std::uint32_t>& newIndex) {
-  std::size_t out = 0;
-  for (const Triangle& t : triangles) {
-    const Triangle mapped = {newIndex[t[0]], newIndex[t[1]], newIndex[t[2]]};
-    if (mapped[0] != kRemoved && mapped[1] != kRemoved && mapped[2] != kRemoved) triangles[out++] = mapped;
-  }
-  triangles.resize(out);
-}
-
-template <class Predicate>
-std::size_t dropTrianglesIf(std::vector<Triangle>& triangles, Predicate isBad) {
-  const std::size_t before = triangles.size();
-  triangles.erase(std::remove_if(triangles.begin(), triangles.end(), isBad), triangles.end());
-  return before - triangles.size();
-}
-
-}  // namespace
-
-std::size_t keepPoints(Scan& scan, const std::vector<char>& keep) {
-  PointSet& points = scan.points;
-  std::vector<std::uint32_t> newIndex(points.size(), kRemoved);
-  std::uint32_t next = 0;
-  for (std::size_t i = 0; i < points.size(); ++i)
-    if (keep[i]) newIndex[i] = next++;
-  const std::size_t removed = points.size() - next;
-  if (removed == 0) return 0;
-  compact(points.positions, keep);
-  compact(points.normals, keep);
-  compact(points.colors, keep);
-  compact(points.intensities, keep);
-  remapTriangles(scan.triangles, newIndex);
-  return removed;
-}
 
 std::size_t dropNonFinitePoints(Scan& scan) {
   std::vector<char> keep(scan.points.size());
@@ -91,14 +46,6 @@ std::size_t mergeDuplicatePoints(Scan& scan) {
   return keepPoints(scan, keep);
 }
 
-std::size_t dropDegenerateTriangles(Scan& scan) {
-  const auto& p = scan.points.positions;
-  return dropTrianglesIf(scan.triangles, [&](const Triangle& t) {
-    if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) return true;
-    return (p[t[1]] - p[t[0]]).cross(p[t[2]] - p[t[0]]).squaredNorm() == 0.0f;
-  });
-}
-
 std::size_t dropDuplicateTriangles(Scan& scan) {
   auto& triangles = scan.triangles;
   auto sortedKey = [](Triangle t) {
@@ -115,15 +62,11 @@ std::size_t dropDuplicateTriangles(Scan& scan) {
   for (std::size_t i = 1; i < order.size(); ++i)
     if (sortedKey(triangles[order[i]]) == sortedKey(triangles[order[i - 1]])) keep[order[i]] = 0;
   const std::size_t before = triangles.size();
-  compact(triangles, keep);
-  return before - triangles.size();
-}
-
-std::size_t dropUnreferencedVertices(Scan& scan) {
-  std::vector<char> used(scan.points.size(), 0);
-  for (const Triangle& t : scan.triangles)
-    for (auto v : t) used[v] = 1;
-  return keepPoints(scan, used);
+  std::size_t out = 0;
+  for (std::size_t i = 0; i < triangles.size(); ++i)
+    if (keep[i]) triangles[out++] = triangles[i];
+  triangles.resize(out);
+  return before - out;
 }
 
 std::size_t normaliseNormals(PointSet& points) {

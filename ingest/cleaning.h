@@ -1,6 +1,7 @@
 // Internal to ingest: cleaning steps over a Scan. Each returns how many points
 // (or triangles) it removed, keeps the relative order of what remains, and
-// keeps every per-point attribute and the triangles' indices consistent.
+// keeps every per-point attribute and the triangles' indices consistent
+// (core/mesh_edit.h holds the steps that reconstruct shares).
 #pragma once
 
 #include "core/geometry.h"
@@ -11,11 +12,6 @@
 
 namespace apo::cleaning {
 
-// Keeps the points whose flag is non-zero, compacting every attribute; for a
-// mesh, drops the triangles that use a removed point and renumbers the rest.
-// Returns the number of points removed.
-std::size_t keepPoints(Scan& scan, const std::vector<char>& keep);
-
 // Points with a NaN or infinite coordinate.
 std::size_t dropNonFinitePoints(Scan& scan);
 
@@ -23,14 +19,8 @@ std::size_t dropNonFinitePoints(Scan& scan);
 // attributes and, for a mesh, the triangles of the others are re-pointed to it.
 std::size_t mergeDuplicatePoints(Scan& scan);
 
-// Triangles with a repeated vertex or zero area.
-std::size_t dropDegenerateTriangles(Scan& scan);
-
 // Triangles over the same three vertices as an earlier one (any order).
 std::size_t dropDuplicateTriangles(Scan& scan);
-
-// Mesh vertices used by no triangle.
-std::size_t dropUnreferencedVertices(Scan& scan);
 
 // Normalises normals to unit length; returns how many were zero or
 // non-finite (left as they are, for the caller to decide).

@@ -1,11 +1,12 @@
 // The ingest pipeline: read, validate, clean, normals; and its report.
 #include "ingest/ingest.h"
 
+#include "adapters/pcl/pcl_points.h"
 #include "core/file_io.h"
+#include "core/mesh_edit.h"
 #include "core/timing.h"
 #include "ingest/cleaning.h"
 #include "ingest/normals.h"
-#include "ingest/pcl_adapter.h"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -21,7 +22,9 @@ namespace {
 // Points needed to fit a plane with neighbours to spare.
 constexpr std::size_t kMinPointsForNormals = 4;
 
-Status validateOptions(const IngestOptions& options) {
+}  // namespace
+
+Status validateIngestOptions(const IngestOptions& options) {
   if (options.outlierNeighbours < 1) return usageError("--outlier-k must be at least 1, got {}", options.outlierNeighbours);
   if (!(options.outlierStdDevs > 0.0)) return usageError("--outlier-std must be positive, got {}", options.outlierStdDevs);
   if (!(options.voxelSize >= 0.0) || !std::isfinite(options.voxelSize))
@@ -33,20 +36,36 @@ Status validateOptions(const IngestOptions& options) {
   return okStatus();
 }
 
+namespace {
+
+void recordStep(IngestReport& report, const char* name, std::size_t removed, double seconds) {
+  report.steps.push_back({name, removed, seconds});
+  if (removed > 0) spdlog::info("ingest: {} removed {}", name, removed);
+}
+
 // Runs one cleaning step, timing it and recording what it removed.
 template <class Step>
 void runStep(IngestReport& report, const char* name, Step&& step) {
   Stopwatch watch;
   const std::size_t removed = step();
-  report.steps.push_back({name, removed, watch.seconds()});
-  if (removed > 0) spdlog::info("ingest: {} removed {}", name, removed);
+  recordStep(report, name, removed, watch.seconds());
+}
+
+// The same for a step that calls a library, which may fail.
+template <class Step>
+Status runFallibleStep(IngestReport& report, const char* name, Step&& step) {
+  Stopwatch watch;
+  const Result<std::size_t> removed = step();
+  if (!removed) return removed.error();
+  recordStep(report, name, *removed, watch.seconds());
+  return okStatus();
 }
 
 void cleanMesh(Scan& scan, const IngestOptions& options, IngestReport& report) {
   if (options.mergeDuplicates) runStep(report, "merge_duplicate_vertices", [&] { return cleaning::mergeDuplicatePoints(scan); });
-  runStep(report, "drop_degenerate_triangles", [&] { return cleaning::dropDegenerateTriangles(scan); });
+  runStep(report, "drop_degenerate_triangles", [&] { return dropDegenerateTriangles(scan); });
   runStep(report, "drop_duplicate_triangles", [&] { return cleaning::dropDuplicateTriangles(scan); });
-  runStep(report, "drop_unreferenced_vertices", [&] { return cleaning::dropUnreferencedVertices(scan); });
+  runStep(report, "drop_unreferenced_vertices", [&] { return dropUnreferencedVertices(scan); });
 }
 
 void meshNormals(Scan& scan, IngestReport& report) {
@@ -67,15 +86,16 @@ Status cleanPointCloud(Scan& scan, const IngestOptions& options, IngestReport& r
     if (scan.points.size() <= static_cast<std::size_t>(options.outlierNeighbours))
       return badInput("{}: {} points are too few for outlier removal with k = {}", path.string(), scan.points.size(),
                       options.outlierNeighbours);
-    runStep(report, "remove_statistical_outliers", [&] {
-      return cleaning::keepPoints(scan, pcl_adapter::statisticalOutlierKeepMask(scan.points.positions,
-                                                                              options.outlierNeighbours,
-                                                                              options.outlierStdDevs));
-    });
+    APO_RETURN_IF_ERROR(runFallibleStep(report, "remove_statistical_outliers", [&]() -> Result<std::size_t> {
+      const auto keep =
+          pcl_adapter::statisticalOutlierKeepMask(scan.points.positions, options.outlierNeighbours, options.outlierStdDevs);
+      if (!keep) return keep.error();
+      return keepPoints(scan, *keep);
+    }));
   }
   if (options.voxelSize > 0.0)
     runStep(report, "voxel_downsample", [&] {
-      return cleaning::keepPoints(scan, cleaning::voxelRepresentativeMask(scan.points.positions, options.voxelSize));
+      return keepPoints(scan, cleaning::voxelRepresentativeMask(scan.points.positions, options.voxelSize));
     });
   return okStatus();
 }
@@ -102,7 +122,9 @@ Status pointCloudNormals(Scan& scan, const IngestOptions& options, IngestReport&
     scan.viewpoint->origin = *options.sensorPosition;
   }
   Stopwatch watch;
-  auto estimated = normals::estimateOrientedNormals(scan.points.positions, scan.viewpoint, options.normalNeighbours);
+  auto oriented = normals::estimateOrientedNormals(scan.points.positions, scan.viewpoint, options.normalNeighbours);
+  if (!oriented) return oriented.error();
+  normals::OrientedNormals& estimated = *oriented;
   scan.points.normals = std::move(estimated.normals);
   report.normalSeconds = watch.seconds();
   report.normalsSource = "estimated";
@@ -121,7 +143,7 @@ Status pointCloudNormals(Scan& scan, const IngestOptions& options, IngestReport&
   runStep(report, "drop_points_without_normal", [&] {
     std::vector<char> keep(scan.points.size());
     for (std::size_t i = 0; i < keep.size(); ++i) keep[i] = scan.points.normals[i].allFinite();
-    return cleaning::keepPoints(scan, keep);
+    return keepPoints(scan, keep);
   });
   return okStatus();
 }
@@ -138,7 +160,7 @@ std::string lastRemoval(const IngestReport& report) {
 }  // namespace
 
 Result<IngestResult> ingestScan(const fs::path& path, const IngestOptions& options) {
-  APO_RETURN_IF_ERROR(validateOptions(options));
+  APO_RETURN_IF_ERROR(validateIngestOptions(options));
   Stopwatch total;
   IngestResult result;
   IngestReport& report = result.report;
@@ -220,9 +242,6 @@ std::string ingestReportJson(const IngestReport& report) {
   json["seconds"] = {{"read", report.readSeconds}, {"normals", report.normalSeconds}, {"total", report.totalSeconds}};
   return json.dump(2) + "\n";
 }
-
-std::size_t dropDegenerateTriangles(Scan& mesh) { return cleaning::dropDegenerateTriangles(mesh); }
-std::size_t dropUnreferencedVertices(Scan& mesh) { return cleaning::dropUnreferencedVertices(mesh); }
 
 Status writeIngestOutputs(const fs::path& outDir, const IngestResult& result) {
   APO_RETURN_IF_ERROR(writePly(outDir / "scan.ply", result.scan));

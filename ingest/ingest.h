@@ -10,7 +10,6 @@
 
 #include <cstdint>
 #include <filesystem>
-#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -23,8 +22,13 @@ enum class ScanFormat { Ply, Pcd, Xyz, Off, Obj, Stl };
 std::string formatName(ScanFormat format);
 
 // The format a path's extension names (case-insensitive: .ply .pcd .xyz .xyzn
-// .pts .txt .off .obj .stl); a Usage-free BadInput error for anything else.
+// .pts .pwn .off .obj .stl); a BadInput error for anything else.
 Result<ScanFormat> formatFromExtension(const std::filesystem::path& path);
+// Whether formatFromExtension accepts the path.
+bool hasScanExtension(const std::filesystem::path& path);
+// The extensions readScan accepts, lower case with the dot, space-separated
+// (".ply .pcd ..."), for messages and help.
+std::string scanExtensionList();
 
 // Reads a scan as stored: non-finite coordinates are kept (cleaning counts and
 // drops them), polygons are fan-triangulated, normals are normalised only by
@@ -50,6 +54,9 @@ struct IngestOptions {
   bool forceNormalEstimation = false;  // re-estimate even if the file has normals
   std::optional<Vec3f> sensorPosition; // overrides the file's viewpoint for orientation
 };
+
+// Usage error naming the option when one is out of range.
+Status validateIngestOptions(const IngestOptions& options);
 
 // What happened to the scan, step by step, for ingest.json.
 struct CleaningStep {
@@ -92,12 +99,6 @@ Result<IngestResult> ingestScan(const std::filesystem::path& path, const IngestO
 // ingest.json text (pretty-printed, stable key order) for a report.
 std::string ingestReportJson(const IngestReport& report);
 
-// Mesh repair steps that ingest runs, for later stages whose meshes need the
-// same care. Each returns how many triangles (or vertices) it removed and
-// keeps attributes and indices consistent.
-std::size_t dropDegenerateTriangles(Scan& mesh);     // repeated vertex or zero area
-std::size_t dropUnreferencedVertices(Scan& mesh);    // vertices in no triangle
-
 // Writes `scan.ply` and `ingest.json` into `outDir`, atomically.
 Status writeIngestOutputs(const std::filesystem::path& outDir, const IngestResult& result);
 
@@ -109,17 +110,6 @@ Status writeIngestOutputs(const std::filesystem::path& outDir, const IngestResul
 
 namespace apo {
 
-// Embree BVH over a triangle mesh. Error (Internal) if Embree fails.
-Result<std::unique_ptr<RayCaster>> makeEmbreeMeshCaster(const Scan& mesh);
-
-// Embree BVH over one oriented disc per point (centre = the point, plane
-// normal = its normal, radius = radii[i], in world units). Discs are hit from
-// either side; hit.primitive is the point index, hit.geometricNormal the
-// point's normal (as given), u = v = 0. BadInput unless every point has a
-// normal and radii holds one finite positive radius per point; Internal if
-// Embree fails. The caster copies its input.
-Result<std::unique_ptr<RayCaster>> makeEmbreeDiscCaster(const PointSet& points, const std::vector<float>& radii);
-
 struct SimulateScanOptions {
   int views = 8;                   // scanner positions on a sphere around the mesh
   int raysPerSide = 200;           // each view casts raysPerSide^2 rays
@@ -128,6 +118,9 @@ struct SimulateScanOptions {
   std::uint64_t seed = 1;
   bool withNormals = false;        // also write the true surface normals of the hits
 };
+
+// Usage error naming the option when one is out of range.
+Status validateSimulateScanOptions(const SimulateScanOptions& options);
 
 struct SimulatedScan {
   Scan scan;                       // points (and normals when asked)
@@ -139,7 +132,8 @@ struct SimulatedScan {
 // mesh's bounding sphere (about its box centre),
 // casts a square grid of rays from each towards the mesh, keeps the hits,
 // perturbs each range by Gaussian noise and each view by a small rigid motion.
+// `caster` hits the mesh's triangles (makeEmbreeMeshCaster in production).
 // Deterministic for given options.
-Result<SimulatedScan> simulateScan(const Scan& mesh, const SimulateScanOptions& options);
+Result<SimulatedScan> simulateScan(const Scan& mesh, const RayCaster& caster, const SimulateScanOptions& options);
 
 }  // namespace apo

@@ -1,7 +1,7 @@
 #include "ingest/normals.h"
 
-#include "ingest/cgal_adapter.h"
-#include "ingest/pcl_adapter.h"
+#include "adapters/cgal/cgal_jobs.h"
+#include "adapters/pcl/pcl_points.h"
 
 #include <Eigen/Eigenvalues>
 
@@ -52,13 +52,14 @@ std::vector<T> gather(const std::vector<T>& values, const std::vector<std::uint3
 
 // For each of `queries`, whether its normal agrees (non-negative dot product)
 // with the normal of the nearest point in `reference`.
-std::vector<char> agreesWithNearest(const std::vector<Vec3f>& points, const std::vector<Vec3f>& normals,
-                                    const std::vector<std::uint32_t>& reference,
-                                    const std::vector<std::uint32_t>& queries) {
+Result<std::vector<char>> agreesWithNearest(const std::vector<Vec3f>& points, const std::vector<Vec3f>& normals,
+                                            const std::vector<std::uint32_t>& reference,
+                                            const std::vector<std::uint32_t>& queries) {
   const auto nearest = pcl_adapter::nearestInReference(gather(points, reference), gather(points, queries));
+  if (!nearest) return nearest.error();
   std::vector<char> agrees(queries.size());
   for (std::size_t q = 0; q < queries.size(); ++q)
-    agrees[q] = normals[queries[q]].dot(normals[reference[static_cast<std::size_t>(nearest[q])]]) >= 0.0f;
+    agrees[q] = normals[queries[q]].dot(normals[reference[static_cast<std::size_t>((*nearest)[q])]]) >= 0.0f;
   return agrees;
 }
 
@@ -69,10 +70,12 @@ struct IslandOrientation {
 
 // Connected components of the symmetric k-nearest-neighbour graph, largest
 // first (ties: lowest first index), each listing its points ascending.
-std::vector<std::vector<std::uint32_t>> neighbourGraphComponents(const std::vector<Vec3f>& points, int k) {
+Result<std::vector<std::vector<std::uint32_t>>> neighbourGraphComponents(const std::vector<Vec3f>& points, int k) {
   std::vector<std::uint32_t> all(points.size());
   std::iota(all.begin(), all.end(), 0u);
-  const auto neighbours = pcl_adapter::nearestNeighbours(points, all, std::min<int>(k + 1, static_cast<int>(points.size())));
+  const auto found = pcl_adapter::nearestNeighbours(points, all, std::min<int>(k + 1, static_cast<int>(points.size())));
+  if (!found) return found.error();
+  const std::vector<std::vector<int>>& neighbours = *found;
   std::vector<std::uint32_t> parent(all);
   auto root = [&](std::uint32_t i) {
     while (parent[i] != i) i = parent[i] = parent[parent[i]];
@@ -99,18 +102,21 @@ std::vector<std::vector<std::uint32_t>> neighbourGraphComponents(const std::vect
 // same rule, which is right for closed objects: each one's highest normal
 // points up and out. Components too small for a graph (k points or fewer),
 // and points CGAL leaves, agree with their nearest oriented point.
-IslandOrientation orientByIslands(const std::vector<Vec3f>& points, std::vector<Vec3f>& normals, int k) {
+Result<IslandOrientation> orientByIslands(const std::vector<Vec3f>& points, std::vector<Vec3f>& normals, int k) {
   IslandOrientation result;
   std::vector<std::uint32_t> oriented, leftovers;
-  for (const auto& component : neighbourGraphComponents(points, k)) {
+  const auto components = neighbourGraphComponents(points, k);
+  if (!components) return components.error();
+  for (const auto& component : *components) {
     if (component.size() <= static_cast<std::size_t>(k)) {
       leftovers.insert(leftovers.end(), component.begin(), component.end());
       continue;
     }
     std::vector<Vec3f> componentNormals = gather(normals, component);
     const auto left = cgal_adapter::orientNormalsMst(gather(points, component), componentNormals, k);
+    if (!left) return left.error();
     std::vector<char> isLeft(component.size(), 0);
-    for (std::uint32_t i : left) isLeft[i] = 1;
+    for (std::uint32_t i : *left) isLeft[i] = 1;
     for (std::size_t i = 0; i < component.size(); ++i) {
       normals[component[i]] = componentNormals[i];
       (isLeft[i] ? leftovers : oriented).push_back(component[i]);
@@ -119,8 +125,9 @@ IslandOrientation orientByIslands(const std::vector<Vec3f>& points, std::vector<
   }
   if (!leftovers.empty() && !oriented.empty()) {
     const auto agrees = agreesWithNearest(points, normals, oriented, leftovers);
+    if (!agrees) return agrees.error();
     for (std::size_t q = 0; q < leftovers.size(); ++q)
-      if (!agrees[q]) normals[leftovers[q]] = -normals[leftovers[q]];
+      if (!(*agrees)[q]) normals[leftovers[q]] = -normals[leftovers[q]];
   }
   result.leftovers = leftovers.size();
   return result;
@@ -128,13 +135,15 @@ IslandOrientation orientByIslands(const std::vector<Vec3f>& points, std::vector<
 
 }  // namespace
 
-int chooseNeighbourCount(const std::vector<Vec3f>& points) {
+Result<int> chooseNeighbourCount(const std::vector<Vec3f>& points) {
   const int largest = kCandidateNeighbourCounts[std::size(kCandidateNeighbourCounts) - 1];
   const int available = static_cast<int>(std::min<std::size_t>(points.size(), largest));
   if (available <= kCandidateNeighbourCounts[0]) return std::max(3, available);
 
   const auto samples = evenSubsample(points.size(), kSubsampleSize);
-  const auto neighbourhoods = pcl_adapter::nearestNeighbours(points, samples, available);
+  const auto found = pcl_adapter::nearestNeighbours(points, samples, available);
+  if (!found) return found.error();
+  const std::vector<std::vector<int>>& neighbourhoods = *found;
 
   int best = 0;
   double bestVariation = 0.0;
@@ -161,12 +170,20 @@ int chooseNeighbourCount(const std::vector<Vec3f>& points) {
   return best != 0 ? best : available;
 }
 
-OrientedNormals estimateOrientedNormals(const std::vector<Vec3f>& points,
-                                        const std::optional<Viewpoint>& viewpoint, int k) {
+Result<OrientedNormals> estimateOrientedNormals(const std::vector<Vec3f>& points,
+                                                const std::optional<Viewpoint>& viewpoint, int k) {
   OrientedNormals result;
-  result.neighbours = k > 0 ? k : chooseNeighbourCount(points);
+  if (k > 0) {
+    result.neighbours = k;
+  } else {
+    const Result<int> chosen = chooseNeighbourCount(points);
+    if (!chosen) return chosen.error();
+    result.neighbours = *chosen;
+  }
   // PCL turns every normal towards the viewpoint it is given.
-  result.normals = pcl_adapter::estimateNormals(points, result.neighbours, viewpoint ? viewpoint->origin : Vec3f::Zero());
+  auto estimated = pcl_adapter::estimateNormals(points, result.neighbours, viewpoint ? viewpoint->origin : Vec3f::Zero());
+  if (!estimated) return estimated.error();
+  result.normals = std::move(estimated).value();
   if (viewpoint) {
     result.orientation = "viewpoint";
     return result;
@@ -176,11 +193,12 @@ OrientedNormals estimateOrientedNormals(const std::vector<Vec3f>& points,
   std::vector<Vec3f> defined = result.normals;
   for (Vec3f& n : defined)
     if (!n.allFinite()) n = Vec3f::UnitZ();
-  const IslandOrientation islands = orientByIslands(points, defined, std::max(result.neighbours, 12));
+  const Result<IslandOrientation> islands = orientByIslands(points, defined, std::max(result.neighbours, 12));
+  if (!islands) return islands.error();
   for (std::size_t i = 0; i < points.size(); ++i)
     if (result.normals[i].allFinite()) result.normals[i] = defined[i];
-  result.islands = islands.islands;
-  result.unoriented = islands.leftovers;
+  result.islands = islands->islands;
+  result.unoriented = islands->leftovers;
   return result;
 }
 

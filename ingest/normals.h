@@ -1,6 +1,7 @@
 // Internal to ingest: normals for point clouds that have none.
 #pragma once
 
+#include "core/error.h"
 #include "core/geometry.h"
 
 #include <optional>
@@ -18,7 +19,8 @@ inline constexpr int kCandidateNeighbourCounts[] = {8, 12, 16, 24, 32, 48};
 // median lambda1/lambda2 below 0.25) are refused, and among the rest the one
 // with the lowest mean surface variation lambda0/(lambda0+lambda1+lambda2)
 // wins: small k is dominated by noise, large k by curvature.
-int chooseNeighbourCount(const std::vector<Vec3f>& points);
+// Internal error when PCL fails.
+Result<int> chooseNeighbourCount(const std::vector<Vec3f>& points);
 
 struct OrientedNormals {
   std::vector<Vec3f> normals;   // unit, or NaN where no plane could be fitted
@@ -30,8 +32,9 @@ struct OrientedNormals {
 
 // Estimates normals (PCL, k nearest neighbours; k = 0 chooses it) and orients
 // them towards `viewpoint` when given, else by CGAL's minimum spanning tree,
-// island by island for scans in separate pieces (docs/ingest.md).
-OrientedNormals estimateOrientedNormals(const std::vector<Vec3f>& points,
-                                        const std::optional<Viewpoint>& viewpoint, int k);
+// island by island for scans in separate pieces (docs/ingest.md). Internal
+// error when PCL or CGAL fails.
+Result<OrientedNormals> estimateOrientedNormals(const std::vector<Vec3f>& points,
+                                                const std::optional<Viewpoint>& viewpoint, int k);
 
 }  // namespace apo::normals

@@ -3,10 +3,9 @@
 // and accepts garbage; only the LZF decompressor comes from PCL. Every check
 // against the file's size happens before anything the header claims is
 // allocated.
+#include "adapters/pcl/pcl_points.h"
 #include "ingest/parse_util.h"
 #include "ingest/readers.h"
-
-#include <pcl/io/lzf.h>
 
 #include <algorithm>
 #include <array>
@@ -575,12 +574,7 @@ void checkCompressedSizes(const parse::BinaryCursor& in, std::uint32_t compresse
 
 std::vector<char> decompressLzf(std::string_view compressed, std::size_t uncompressedSize, std::size_t atByte) {
   std::vector<char> plain(uncompressedSize);
-  if (uncompressedSize == 0) return plain;
-  // pcl::lzfDecompress reads one control byte even from empty input.
-  if (compressed.empty() ||
-      pcl::lzfDecompress(compressed.data(), static_cast<unsigned>(compressed.size()), plain.data(),
-                         static_cast<unsigned>(uncompressedSize)) != uncompressedSize)
-    fail("byte {}: corrupt LZF data", atByte);
+  if (!pcl_adapter::lzfDecompress(compressed, plain)) fail("byte {}: corrupt LZF data", atByte);
   return plain;
 }
 

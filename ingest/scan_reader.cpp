@@ -22,18 +22,39 @@ std::string formatName(ScanFormat format) {
   return "unknown";
 }
 
+namespace {
+
+// The one list of scan file extensions (lower case) and their formats.
+struct ExtensionFormat {
+  const char* extension;
+  ScanFormat format;
+};
+constexpr ExtensionFormat kExtensions[] = {
+    {".ply", ScanFormat::Ply}, {".pcd", ScanFormat::Pcd}, {".xyz", ScanFormat::Xyz}, {".xyzn", ScanFormat::Xyz},
+    {".pts", ScanFormat::Xyz}, {".pwn", ScanFormat::Xyz}, {".off", ScanFormat::Off}, {".obj", ScanFormat::Obj},
+    {".stl", ScanFormat::Stl},
+};
+
+std::string lowercase(std::string text) {
+  std::transform(text.begin(), text.end(), text.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return text;
+}
+
+}  // namespace
+
+std::string scanExtensionList() {
+  std::string list;
+  for (const ExtensionFormat& entry : kExtensions) list += (list.empty() ? "" : " ") + std::string(entry.extension);
+  return list;
+}
+
+bool hasScanExtension(const fs::path& path) { return formatFromExtension(path).ok(); }
+
 Result<ScanFormat> formatFromExtension(const fs::path& path) {
-  std::string extension = path.extension().string();
-  std::transform(extension.begin(), extension.end(), extension.begin(),
-                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  if (extension == ".ply") return ScanFormat::Ply;
-  if (extension == ".pcd") return ScanFormat::Pcd;
-  if (extension == ".xyz" || extension == ".xyzn" || extension == ".pts" || extension == ".pwn") return ScanFormat::Xyz;
-  if (extension == ".off") return ScanFormat::Off;
-  if (extension == ".obj") return ScanFormat::Obj;
-  if (extension == ".stl") return ScanFormat::Stl;
-  return badInput("{}: unsupported extension '{}' (supported: .ply .pcd .xyz .xyzn .pts .pwn .off .obj .stl)",
-                  path.string(), extension);
+  const std::string extension = lowercase(path.extension().string());
+  for (const ExtensionFormat& entry : kExtensions)
+    if (extension == entry.extension) return entry.format;
+  return badInput("{}: unsupported extension '{}' (supported: {})", path.string(), extension, scanExtensionList());
 }
 
 Result<Scan> readScan(const fs::path& path) {

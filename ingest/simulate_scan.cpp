@@ -55,7 +55,9 @@ Eigen::Affine3f misregistration(std::mt19937_64& random, const Vec3f& centre, fl
          Eigen::Translation3f(-centre);
 }
 
-Status validate(const SimulateScanOptions& options) {
+}  // namespace
+
+Status validateSimulateScanOptions(const SimulateScanOptions& options) {
   if (options.views < 1 || options.views > 10000) return usageError("--views must be in [1, 10000], got {}", options.views);
   if (options.raysPerSide < 1 || options.raysPerSide > 8192)
     return usageError("--rays must be in [1, 8192], got {}", options.raysPerSide);
@@ -64,12 +66,9 @@ Status validate(const SimulateScanOptions& options) {
   return okStatus();
 }
 
-}  // namespace
-
-Result<SimulatedScan> simulateScan(const Scan& mesh, const SimulateScanOptions& options) {
-  APO_RETURN_IF_ERROR(validate(options));
-  auto caster = makeEmbreeMeshCaster(mesh);
-  if (!caster) return caster.error();
+Result<SimulatedScan> simulateScan(const Scan& mesh, const RayCaster& caster, const SimulateScanOptions& options) {
+  APO_RETURN_IF_ERROR(validateSimulateScanOptions(options));
+  if (!mesh.isMesh()) return badInput("simulate-scan needs a triangle mesh, got {} points and no triangles", mesh.points.size());
 
   const Aabb box = boundingBox(mesh.points.positions);
   const Vec3f centre = 0.5f * (box.min + box.max);
@@ -87,7 +86,7 @@ Result<SimulatedScan> simulateScan(const Scan& mesh, const SimulateScanOptions& 
   for (const Vec3f& direction : fibonacciDirections(options.views)) {
     const Vec3f origin = centre + 2.0f * radius * direction;
     const auto rays = viewRays(origin, centre, radius, options.raysPerSide);
-    (*caster)->intersect(rays, hits);
+    caster.intersect(rays, hits);
     const Eigen::Affine3f motion =
         misregistration(random, centre, misregistrationSize, misregistrationSize * box.diagonal());
     std::uint32_t kept = 0;

@@ -3,9 +3,11 @@
 // orientation, and the quality figures of reconstruct.json.
 #include "reconstruct/reconstruct.h"
 
+#include "adapters/cgal/cgal_jobs.h"
+#include "adapters/flann/flann_search.h"
+#include "core/mesh_edit.h"
 #include "core/timing.h"
-#include "ingest/ingest.h"
-#include "reconstruct/cgal_adapters.h"
+#include "reconstruct/mesh_quality.h"
 
 #include <Eigen/Eigenvalues>
 #include <spdlog/spdlog.h>
@@ -24,7 +26,9 @@ constexpr std::size_t kMaxDistanceSamples = 200000;
 // Relative thickness below which the points count as one plane.
 constexpr double kPlanarThickness = 1e-6;
 
-Status validateOptions(const ReconstructOptions& o) {
+}  // namespace
+
+Status validateReconstructOptions(const ReconstructOptions& o) {
   if (!(o.trim > 0.0)) return usageError("--trim must be positive, got {}", o.trim);
   if (!(o.radiusRatioBound > 0.0)) return usageError("--radius-ratio must be positive, got {}", o.radiusRatioBound);
   if (!(o.minComponent >= 0.0 && o.minComponent < 1.0))
@@ -37,6 +41,8 @@ Status validateOptions(const ReconstructOptions& o) {
     return usageError("--poisson-distance and --scale must be >= 0 (0: derived from the data)");
   return okStatus();
 }
+
+namespace {
 
 // Smallest over largest covariance eigenvalue: 0 for points on one plane.
 double relativeThickness(const std::vector<Vec3f>& points) {
@@ -78,12 +84,15 @@ PointSet subset(const PointSet& points, const std::vector<char>& keep) {
 // A grid subsample of about maxPoints points: one per cell, the cell side
 // grown from the spacing until the count fits (a surface's point count falls
 // with the square of the cell side).
-PointSet densityAwareSubsample(const PointSet& points, std::uint64_t maxPoints, int spacingNeighbours) {
-  double cell = cgal::averageSpacing(points.positions, spacingNeighbours) *
-                std::sqrt(static_cast<double>(points.size()) / static_cast<double>(maxPoints));
+Result<PointSet> densityAwareSubsample(const PointSet& points, std::uint64_t maxPoints, int spacingNeighbours) {
+  const Result<double> spacing = cgal_adapter::averageSpacing(points.positions, spacingNeighbours);
+  if (!spacing) return spacing.error();
+  double cell = *spacing * std::sqrt(static_cast<double>(points.size()) / static_cast<double>(maxPoints));
   PointSet kept;
   for (int attempt = 0; attempt < 6; ++attempt) {
-    kept = subset(points, cgal::gridSubsampleMask(points.positions, cell));
+    const Result<std::vector<char>> keep = cgal_adapter::gridSubsampleMask(points.positions, cell);
+    if (!keep) return keep.error();
+    kept = subset(points, *keep);
     if (kept.size() <= maxPoints) break;
     cell *= std::sqrt(static_cast<double>(kept.size()) / static_cast<double>(maxPoints)) * 1.02;
   }
@@ -132,11 +141,12 @@ Removal removeTriangles(Scan& mesh, Predicate drop) {
 
 // Poisson closes every hole with invented surface: drop triangles whose
 // centroid is far from every input point.
-Removal trimFarFromSamples(Scan& mesh, const std::vector<Vec3f>& samples, double maxDistance) {
+Result<Removal> trimFarFromSamples(Scan& mesh, const std::vector<Vec3f>& samples, double maxDistance) {
   std::vector<Vec3f> centroids;
   for (const Triangle& t : mesh.triangles) centroids.push_back(triangleCentroid(mesh, t));
   const auto distances = flann_adapter::nearestDistances(samples, centroids);
-  return removeTriangles(mesh, [&](std::size_t i) { return distances[i] > maxDistance; });
+  if (!distances) return distances.error();
+  return removeTriangles(mesh, [&](std::size_t i) { return (*distances)[i] > maxDistance; });
 }
 
 // Advancing front and scale space bridge holes with large triangles.
@@ -151,8 +161,9 @@ struct ComponentFigures {
 
 // Scan debris: components below `minFraction` of the total area.
 ComponentFigures dropSmallComponents(Scan& mesh, double minFraction) {
-  std::uint32_t count = 0;
-  const auto component = cgal::triangleComponents(mesh, count);
+  const TriangleComponents components = triangleComponents(mesh);
+  const std::uint32_t count = components.count;
+  const std::vector<std::uint32_t>& component = components.ofTriangle;
   std::vector<double> area(count, 0.0);
   for (std::size_t i = 0; i < mesh.triangles.size(); ++i) area[component[i]] += triangleArea(mesh, mesh.triangles[i]);
   const double total = std::accumulate(area.begin(), area.end(), 0.0);
@@ -169,12 +180,15 @@ ComponentFigures dropSmallComponents(Scan& mesh, double minFraction) {
 
 // Turns each component so that its triangles agree, by area-weighted vote,
 // with the normals of their nearest input points. Returns how many flipped.
-std::uint64_t orientLikeSamples(Scan& mesh, const PointSet& samples) {
-  std::uint32_t count = 0;
-  const auto component = cgal::triangleComponents(mesh, count);
+Result<std::uint64_t> orientLikeSamples(Scan& mesh, const PointSet& samples) {
+  const TriangleComponents components = triangleComponents(mesh);
+  const std::uint32_t count = components.count;
+  const std::vector<std::uint32_t>& component = components.ofTriangle;
   std::vector<Vec3f> centroids;
   for (const Triangle& t : mesh.triangles) centroids.push_back(triangleCentroid(mesh, t));
-  const auto nearest = flann_adapter::nearestIndices(samples.positions, centroids);
+  const auto found = flann_adapter::nearestIndices(samples.positions, centroids);
+  if (!found) return found.error();
+  const std::vector<std::uint32_t>& nearest = *found;
   const auto& p = mesh.points.positions;
   std::vector<double> vote(count, 0.0);
   for (std::size_t i = 0; i < mesh.triangles.size(); ++i) {
@@ -197,14 +211,17 @@ std::vector<Vec3f> evenlyStrided(const std::vector<Vec3f>& points, std::size_t m
 }
 
 // Mean and 95th percentile of the input points' distances to M.
-void measurePointDistances(const PointSet& input, const Scan& mesh, ReconstructReport& report) {
-  auto distances = cgal::pointToMeshDistances(evenlyStrided(input.positions, kMaxDistanceSamples), mesh);
-  if (distances.empty() || report.quality.diagonal <= 0.0) return;
+Status measurePointDistances(const PointSet& input, const Scan& mesh, ReconstructReport& report) {
+  auto measured = cgal_adapter::pointToMeshDistances(evenlyStrided(input.positions, kMaxDistanceSamples), mesh);
+  if (!measured) return measured.error();
+  std::vector<float>& distances = *measured;
+  if (distances.empty() || report.quality.diagonal <= 0.0) return okStatus();
   const double sum = std::accumulate(distances.begin(), distances.end(), 0.0);
   const auto p95 = distances.begin() + static_cast<std::ptrdiff_t>(0.95 * static_cast<double>(distances.size() - 1));
   std::nth_element(distances.begin(), p95, distances.end());
   report.pointToMeshMean = sum / static_cast<double>(distances.size()) / report.quality.diagonal;
   report.pointToMeshP95 = *p95 / report.quality.diagonal;
+  return okStatus();
 }
 
 ReconstructionMethod chooseMethod(ReconstructionMethod requested, double imbalance) {
@@ -218,12 +235,12 @@ Result<Scan> runMethod(ReconstructionMethod method, const PointSet& points, doub
     case ReconstructionMethod::Auto:
       break;
     case ReconstructionMethod::Poisson:
-      return cgal::poissonReconstruct(points, spacing, options.poissonSpacing > 0 ? options.poissonSpacing : 0.375,
+      return cgal_adapter::poissonReconstruct(points, spacing, options.poissonSpacing > 0 ? options.poissonSpacing : 0.375,
                                       options.poissonRadius, options.seed);
     case ReconstructionMethod::AdvancingFront:
-      return cgal::advancingFrontReconstruct(points.positions);
+      return cgal_adapter::advancingFrontReconstruct(points.positions);
     case ReconstructionMethod::ScaleSpace:
-      return cgal::scaleSpaceReconstruct(points.positions, spacing, options.scaleSpaceScale > 0 ? options.scaleSpaceScale : 4.0);
+      return cgal_adapter::scaleSpaceReconstruct(points.positions, spacing, options.scaleSpaceScale > 0 ? options.scaleSpaceScale : 4.0);
   }
   return internalError("no reconstruction method chosen ({})", methodName(method));
 }
@@ -234,10 +251,6 @@ double normalImbalance(const PointSet& points) {
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   for (const Vec3f& n : points.normals) sum += n.cast<double>().normalized();
   return points.size() > 0 ? sum.norm() / static_cast<double>(points.size()) : 0.0;
-}
-
-std::uint64_t defaultMaxPoints(ReconstructionMethod method) {
-  return method == ReconstructionMethod::AdvancingFront || method == ReconstructionMethod::ScaleSpace ? 150000 : 50000;
 }
 
 std::string methodName(ReconstructionMethod method) {
@@ -255,7 +268,7 @@ constexpr double kMethodStart = 0.1, kMethodEnd = 0.8, kCleanEnd = 0.9;
 
 Result<Reconstruction> reconstructSurface(const PointSet& input, const ReconstructOptions& options,
                                           const ProgressCallback& onProgress) {
-  APO_RETURN_IF_ERROR(validateOptions(options));
+  APO_RETURN_IF_ERROR(validateReconstructOptions(options));
   APO_RETURN_IF_ERROR(validatePoints(input));
   Stopwatch watch;
   Reconstruction result;
@@ -270,12 +283,16 @@ Result<Reconstruction> reconstructSurface(const PointSet& input, const Reconstru
   PointSet subsampled;
   const bool subsample = maxPoints != 0 && input.size() > maxPoints;
   if (subsample) {
-    subsampled = densityAwareSubsample(input, maxPoints, options.spacingNeighbours);
+    auto kept = densityAwareSubsample(input, maxPoints, options.spacingNeighbours);
+    if (!kept) return kept.error();
+    subsampled = std::move(kept).value();
     spdlog::info("reconstruct: {} points subsampled to {} (--max-points {})", input.size(), subsampled.size(), maxPoints);
   }
   const PointSet& points = subsample ? subsampled : input;
   report.pointsUsed = points.size();
-  report.averageSpacing = cgal::averageSpacing(points.positions, options.spacingNeighbours);
+  const Result<double> spacing = cgal_adapter::averageSpacing(points.positions, options.spacingNeighbours);
+  if (!spacing) return spacing.error();
+  report.averageSpacing = *spacing;
   reportProgress(onProgress, kMethodStart);
 
   report.method = methodName(method);
@@ -290,9 +307,14 @@ Result<Reconstruction> reconstructSurface(const PointSet& input, const Reconstru
   spdlog::info("reconstruct: {} produced {} triangles", report.method, M.triangles.size());
   reportProgress(onProgress, kMethodEnd);
 
-  const Removal removed = method == ReconstructionMethod::Poisson
-                              ? trimFarFromSamples(M, points.positions, options.trim * report.averageSpacing)
-                              : dropBridgingTriangles(M, options.radiusRatioBound * report.averageSpacing);
+  Removal removed;
+  if (method == ReconstructionMethod::Poisson) {
+    const Result<Removal> trimmed = trimFarFromSamples(M, points.positions, options.trim * report.averageSpacing);
+    if (!trimmed) return trimmed.error();
+    removed = *trimmed;
+  } else {
+    removed = dropBridgingTriangles(M, options.radiusRatioBound * report.averageSpacing);
+  }
   report.trimmedTriangles = removed.triangles;
   report.trimmedArea = removed.area;
   dropDegenerateTriangles(M);
@@ -302,12 +324,14 @@ Result<Reconstruction> reconstructSurface(const PointSet& input, const Reconstru
   dropUnreferencedVertices(M);
   if (!M.isMesh()) return badInput("{} reconstruction left no surface after trimming", report.method);
 
-  const std::uint64_t flipped = orientLikeSamples(M, points);
+  const Result<std::uint64_t> oriented = orientLikeSamples(M, points);
+  if (!oriented) return oriented.error();
+  const std::uint64_t flipped = *oriented;
   if (flipped > 0) spdlog::info("reconstruct: {} components turned to agree with the point normals", flipped);
   M.points.normals = areaWeightedVertexNormals(M);
   reportProgress(onProgress, kCleanEnd);
   report.quality = measureMesh(M);
-  measurePointDistances(input, M, report);
+  APO_RETURN_IF_ERROR(measurePointDistances(input, M, report));
   report.seconds = watch.seconds();
   reportProgress(onProgress, 1.0);
   return result;
@@ -316,7 +340,7 @@ Result<Reconstruction> reconstructSurface(const PointSet& input, const Reconstru
 Result<Reconstruction> reconstructScan(const Scan& scan, const ReconstructOptions& options,
                                        const ProgressCallback& onProgress) {
   if (!scan.isMesh()) return reconstructSurface(scan.points, options, onProgress);
-  APO_RETURN_IF_ERROR(validateOptions(options));
+  APO_RETURN_IF_ERROR(validateReconstructOptions(options));
   Reconstruction adopted;
   adopted.mesh = scan;
   if (!adopted.mesh.points.hasNormals()) adopted.mesh.points.normals = areaWeightedVertexNormals(adopted.mesh);

@@ -1,7 +1,8 @@
 // reconstruct: turns scan points with oriented normals into a dense triangle
 // mesh M (CGAL Poisson, advancing front or scale-space reconstruction), and
 // simplifies a dense mesh M into a coarse mesh m (CGAL edge collapse).
-// Every CGAL failure is caught at its adapter and returned as an Error.
+// CGAL and FLANN are reached through their adapters (adapters/cgal,
+// adapters/flann), which return every failure as an Error.
 #pragma once
 
 #include "core/error.h"
@@ -87,7 +88,12 @@ double normalImbalance(const PointSet& points);
 inline constexpr double kClosedImbalance = 0.3;
 
 // CGAL Poisson costs about 0.4 ms per point here, advancing front a tenth.
-std::uint64_t defaultMaxPoints(ReconstructionMethod method);
+inline std::uint64_t defaultMaxPoints(ReconstructionMethod method) {
+  return method == ReconstructionMethod::AdvancingFront || method == ReconstructionMethod::ScaleSpace ? 150000 : 50000;
+}
+
+// Usage error naming the option when one is out of range.
+Status validateReconstructOptions(const ReconstructOptions& options);
 
 // Reconstructs M from points with oriented normals. BadInput when there are
 // too few points, no normals, or the points are all on a plane (Poisson), and
@@ -110,6 +116,9 @@ struct SimplifyOptions {
   double ratio = 0.0;                // (0, 1]: target = ratio x input faces
   SimplifyPolicy policy = SimplifyPolicy::GarlandHeckbert;
 };
+
+// Usage error naming the option when one is out of range.
+Status validateSimplifyOptions(const SimplifyOptions& options);
 
 struct SimplifyReport {
   std::string policy;

@@ -1,8 +1,10 @@
 // M to m: edge-collapse simplification and its distance figures.
-#include "core/timing.h"
-#include "ingest/ingest.h"
-#include "reconstruct/cgal_adapters.h"
 #include "reconstruct/reconstruct.h"
+
+#include "adapters/cgal/cgal_jobs.h"
+#include "core/mesh_edit.h"
+#include "core/timing.h"
+#include "reconstruct/mesh_quality.h"
 
 #include <spdlog/spdlog.h>
 
@@ -18,13 +20,9 @@ constexpr std::uint64_t kMinTargetFaces = 4;
 // Surface samples per side for the Hausdorff and mean distances.
 constexpr std::size_t kDistanceSamples = 100000;
 
-Result<std::uint64_t> targetFaceCount(const Scan& mesh, const SimplifyOptions& options) {
-  if (options.ratio != 0.0) {
-    if (!(options.ratio > 0.0 && options.ratio <= 1.0)) return usageError("--ratio must be in (0, 1], got {}", options.ratio);
+std::uint64_t targetFaceCount(const Scan& mesh, const SimplifyOptions& options) {
+  if (options.ratio != 0.0)
     return std::max<std::uint64_t>(kMinTargetFaces, static_cast<std::uint64_t>(std::llround(options.ratio * mesh.triangles.size())));
-  }
-  if (options.targetFaces < kMinTargetFaces)
-    return usageError("--faces must be at least {}, got {}", kMinTargetFaces, options.targetFaces);
   return options.targetFaces;
 }
 
@@ -32,27 +30,44 @@ struct OneSided {
   double max = 0.0, mean = 0.0;
 };
 
-OneSided distancesFromSamples(const Scan& from, const Scan& to) {
-  const auto distances = cgal::pointToMeshDistances(cgal::sampleSurface(from, kDistanceSamples), to);
+Result<OneSided> distancesFromSamples(const Scan& from, const Scan& to) {
+  const auto distances = cgal_adapter::pointToMeshDistances(sampleSurface(from, kDistanceSamples), to);
+  if (!distances) return distances.error();
   OneSided figures;
-  if (distances.empty()) return figures;
-  figures.max = *std::max_element(distances.begin(), distances.end());
-  figures.mean = std::accumulate(distances.begin(), distances.end(), 0.0) / static_cast<double>(distances.size());
+  if (distances->empty()) return figures;
+  figures.max = *std::max_element(distances->begin(), distances->end());
+  figures.mean = std::accumulate(distances->begin(), distances->end(), 0.0) / static_cast<double>(distances->size());
   return figures;
 }
 
 // Two-sided Hausdorff and mean distances between m and M, as fractions of M's
 // bounding-box diagonal, from area-proportional samples of each surface.
-void measureDistances(const Scan& coarse, const Scan& dense, SimplifyReport& report) {
+Status measureDistances(const Scan& coarse, const Scan& dense, SimplifyReport& report) {
   const double diagonal = boundingBox(dense.points.positions).diagonal();
-  if (diagonal <= 0.0) return;
-  const OneSided coarseToDense = distancesFromSamples(coarse, dense);
-  const OneSided denseToCoarse = distancesFromSamples(dense, coarse);
-  report.hausdorff = std::max(coarseToDense.max, denseToCoarse.max) / diagonal;
-  report.meanDistance = 0.5 * (coarseToDense.mean + denseToCoarse.mean) / diagonal;
+  if (diagonal <= 0.0) return okStatus();
+  const Result<OneSided> coarseToDense = distancesFromSamples(coarse, dense);
+  if (!coarseToDense) return coarseToDense.error();
+  const Result<OneSided> denseToCoarse = distancesFromSamples(dense, coarse);
+  if (!denseToCoarse) return denseToCoarse.error();
+  report.hausdorff = std::max(coarseToDense->max, denseToCoarse->max) / diagonal;
+  report.meanDistance = 0.5 * (coarseToDense->mean + denseToCoarse->mean) / diagonal;
+  return okStatus();
+}
+
+cgal_adapter::CollapseCost collapseCostOf(SimplifyPolicy policy) {
+  return policy == SimplifyPolicy::LindstromTurk ? cgal_adapter::CollapseCost::LindstromTurk
+                                                 : cgal_adapter::CollapseCost::GarlandHeckbert;
 }
 
 }  // namespace
+
+Status validateSimplifyOptions(const SimplifyOptions& options) {
+  if (options.ratio != 0.0 && !(options.ratio > 0.0 && options.ratio <= 1.0))
+    return usageError("--ratio must be in (0, 1], got {}", options.ratio);
+  if (options.ratio == 0.0 && options.targetFaces < kMinTargetFaces)
+    return usageError("--faces must be at least {}, got {}", kMinTargetFaces, options.targetFaces);
+  return okStatus();
+}
 
 std::string policyName(SimplifyPolicy policy) {
   switch (policy) {
@@ -66,25 +81,25 @@ std::string policyName(SimplifyPolicy policy) {
 constexpr double kCollapseShare = 0.8;
 
 Result<Simplification> simplifyMesh(const Scan& mesh, const SimplifyOptions& options, const ProgressCallback& onProgress) {
+  APO_RETURN_IF_ERROR(validateSimplifyOptions(options));
   if (!mesh.isMesh()) return badInput("simplification needs a triangle mesh, got {} points and no triangles", mesh.points.size());
-  auto target = targetFaceCount(mesh, options);
-  if (!target) return target.error();
+  const std::uint64_t target = targetFaceCount(mesh, options);
   Stopwatch watch;
   Simplification result;
   SimplifyReport& report = result.report;
   report.policy = policyName(options.policy);
   report.facesIn = mesh.triangles.size();
-  report.targetFaces = *target;
+  report.targetFaces = target;
 
-  if (*target >= mesh.triangles.size()) {
+  if (target >= mesh.triangles.size()) {
     // Nothing to collapse: m is M, said so rather than refused.
-    spdlog::warn("simplify: target {} faces is not below the input's {}; m is the input mesh", *target,
+    spdlog::warn("simplify: target {} faces is not below the input's {}; m is the input mesh", target,
                  mesh.triangles.size());
     report.policy = "none (target not below input)";
     result.mesh = mesh;
   } else {
-    auto collapsed = cgal::edgeCollapse(mesh, *target, options.policy,
-                                        [&](double fraction) { reportProgress(onProgress, kCollapseShare * fraction); });
+    auto collapsed = cgal_adapter::edgeCollapse(mesh, target, collapseCostOf(options.policy),
+                                                [&](double fraction) { reportProgress(onProgress, kCollapseShare * fraction); });
     if (!collapsed) return collapsed.error();
     if (collapsed->repairedVertices > 0)
       spdlog::warn("simplify: input had non-manifold vertices; {} vertices were split to repair it",
@@ -107,7 +122,7 @@ Result<Simplification> simplifyMesh(const Scan& mesh, const SimplifyOptions& opt
                  "and free of degenerate faces",
                  report.facesOut, report.targetFaces);
   report.quality = measureMesh(result.mesh);
-  measureDistances(result.mesh, mesh, report);
+  APO_RETURN_IF_ERROR(measureDistances(result.mesh, mesh, report));
   report.seconds = watch.seconds();
   reportProgress(onProgress, 1.0);
   return result;

@@ -2,7 +2,7 @@
 // nothing), and GLSL programs built from source with their logs on failure.
 #pragma once
 
-#include "render/gl_context.h"
+#include "adapters/osmesa/gl_context.h"
 
 #include <string_view>
 #include <utility>

@@ -2,7 +2,7 @@
 // row 0 at the top (GL's rows run bottom-up), and its time per frame.
 #pragma once
 
-#include "render/gl_context.h"
+#include "adapters/osmesa/gl_context.h"
 #include "render/render.h"
 
 #include <functional>

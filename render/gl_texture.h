@@ -3,8 +3,8 @@
 // filtered or normalised value).
 #pragma once
 
-#include "bake/bake.h"
-#include "render/gl_context.h"
+#include "format/format.h"
+#include "adapters/osmesa/gl_context.h"
 #include "render/gl_program.h"
 
 namespace apo::gl {

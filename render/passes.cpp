@@ -1,6 +1,7 @@
 // The passes of each view (reference M, baseline m, m with the APO) and the
 // exactness pass, drawn into the OSMesa context's offscreen target.
-#include "render/gl_context.h"
+#include "adapters/flann/flann_search.h"
+#include "adapters/osmesa/gl_context.h"
 #include "render/gl_program.h"
 #include "render/gl_readback.h"
 #include "render/gl_texture.h"
@@ -23,6 +24,11 @@ namespace apo {
 namespace {
 
 constexpr std::array<float, 4> kBackground = {1.0f, 1.0f, 1.0f, 1.0f};
+// llvmpipe's GL_MAX_RENDERBUFFER_SIZE; the context refuses more on other drivers.
+constexpr int kLargestImage = 16384;
+// The 6 axis directions and the 8 cube diagonals (standardViews).
+constexpr int kStandardViewCount = 14;
+constexpr int kMostTimedFrames = 1000;
 
 float radians(float degrees) { return degrees * std::numbers::pi_v<float> / 180.0f; }
 
@@ -95,11 +101,13 @@ GpuGeometry uploadMesh(const gl::Api& api, const Scan& mesh) {
   return gpu;
 }
 
-// The points with their normals and disc radii (bake/'s: the same discs the
-// bake's rays hit).
+// The points with their normals and disc radii (adapters/flann's discRadii:
+// the same discs the bake's rays hit).
 Result<GpuGeometry> uploadSplats(const gl::Api& api, const PointSet& points) {
   if (!points.hasNormals()) return badInput("render: M is a point cloud without normals (run apo ingest, which estimates them)");
-  const std::vector<float> radii = discRadii(points);
+  const Result<std::vector<float>> found = discRadii(points);
+  if (!found) return found.error();
+  const std::vector<float>& radii = *found;
   std::vector<float> interleaved;
   interleaved.reserve(7 * points.size());
   for (std::size_t i = 0; i < points.size(); ++i) {
@@ -122,7 +130,10 @@ std::string fragmentSource(std::string_view body, Walk walk) {
   std::string source = "#version 450 core\n";
   if (walk == Walk::CountingFetches) source += "#define COUNT_FETCHES\n";
   source += shaders::kShading;
-  if (walk != Walk::None) source += shaders::kApoWalk;
+  if (walk != Walk::None) {
+    source += glslLayoutDefinitions();
+    source += shaders::kApoWalk;
+  }
   source += body;
   return source;
 }
@@ -338,8 +349,19 @@ std::vector<Camera> standardViews(const Aabb& box, int count) {
   return cameras;
 }
 
+Status validateRenderOptions(const RenderOptions& options) {
+  if (options.size < 1 || options.size > kLargestImage)
+    return usageError("--size must be in [1, {}], got {}", kLargestImage, options.size);
+  if (options.views < 1 || options.views > kStandardViewCount)
+    return usageError("--views must be in [1, {}], got {}", kStandardViewCount, options.views);
+  if (options.timedFrames < 0 || options.timedFrames > kMostTimedFrames)
+    return usageError("--frames must be in [0, {}], got {}", kMostTimedFrames, options.timedFrames);
+  return okStatus();
+}
+
 Result<std::vector<ViewImages>> renderViews(const Scan* detail, const Scan& coarse, const ApoTexture& apo,
                                             const RenderOptions& options, const std::function<void(int, int)>& onViewDone) {
+  APO_RETURN_IF_ERROR(validateRenderOptions(options));
   auto scene = makeApoScene(coarse, apo, options.size);
   if (!scene) return scene.error();
   std::optional<GpuGeometry> detailGeometry;
@@ -371,6 +393,10 @@ std::uint32_t expectedFetches(const Lookup& lookup, int completeDepth) {
   return lookup.found ? 2u * static_cast<std::uint32_t>(lookup.depth - completeDepth) + 3u : 1u;
 }
 
+// What the exactness shader writes where its walk found no node: the empty
+// grid cell's value (glslLayoutDefinitions' APO_EMPTY_CELL).
+constexpr std::uint32_t kNoNodeMarker = 0xFFFFFFFFu;
+
 Result<WalkAgreement> compareWalkWithCpu(const Scan& coarse, const ApoTexture& apo, int size, int views) {
   auto scene = makeApoScene(coarse, apo, size);
   if (!scene) return scene.error();
@@ -385,8 +411,12 @@ Result<WalkAgreement> compareWalkWithCpu(const Scan& coarse, const ApoTexture& a
     useApoProgram(*scene, counting, apo, camera, false, false);
     auto counts = renderPass(*scene->context, counting, scene->coarse, camera);
     if (!counts) return counts.error();
-    // And the filtered normals (paper 5.3), without mip-mapping.
+    // The normals the shader decodes, as they are and filtered (paper 5.3),
+    // without mip-mapping.
     const GLuint apoProgram = scene->programs.apo.id();
+    useApoProgram(*scene, apoProgram, apo, camera, false, false);
+    auto decoded = renderPass(*scene->context, apoProgram, scene->coarse, camera);
+    if (!decoded) return decoded.error();
     useApoProgram(*scene, apoProgram, apo, camera, false, true);
     auto filtered = renderPass(*scene->context, apoProgram, scene->coarse, camera);
     if (!filtered) return filtered.error();
@@ -400,7 +430,9 @@ Result<WalkAgreement> compareWalkWithCpu(const Scan& coarse, const ApoTexture& a
       const std::uint8_t* b = &pass->shaded.rgba[4 * i];
       const std::uint32_t gpuNode = b[0] | (b[1] << 8) | (b[2] << 16) | (static_cast<std::uint32_t>(b[3]) << 24);
       const Lookup cpu = lookupTexture(apo, pass->normals.normal(i));
-      const std::uint32_t cpuNode = cpu.found ? cpu.texel : 0xFFFFFFFFu;
+      const std::uint32_t cpuNode = cpu.found ? cpu.texel : kNoNodeMarker;
+      if (cpu.found && decoded->normals.covered(i))
+        agreement.maxNormalDegrees = std::max(agreement.maxNormalDegrees, angleDegrees(cpu.normal, decoded->normals.normal(i)));
       ++agreement.pixels;
       agreement.mismatches += gpuNode == cpuNode ? 0 : 1;
       const bool counted = counts->normals.covered(i);

@@ -1,9 +1,10 @@
 // render: draws m with the APO (paper section 5) next to M as ground truth,
-// headless under OSMesa (Mesa llvmpipe), and measures how close they are.
+// headless under OSMesa (Mesa llvmpipe, through adapters/osmesa), and
+// measures how close they are. It reads the APO through format/ only.
 // docs/render.md describes the passes and render.json.
 #pragma once
 
-#include "bake/bake.h"
+#include "format/format.h"
 #include "core/error.h"
 #include "core/geometry.h"
 
@@ -99,6 +100,11 @@ struct RenderOptions {
   int timedFrames = 5;      // frames timed per pass and view (their median); 0: no timing
 };
 
+// Usage error naming the option when one is out of range: size in [1, 16384]
+// (llvmpipe's largest render target; a smaller GPU limit is refused when the
+// context is made), views in [1, 14], timed frames in [0, 1000].
+Status validateRenderOptions(const RenderOptions& options);
+
 // Texel reads per fragment of the APO pass, over the pixels m covers.
 struct FetchCounts {
   std::uint64_t fragments = 0;
@@ -188,17 +194,19 @@ Status writeRenderOutputs(const std::filesystem::path& dir, const std::vector<Vi
 // little-endian, rows bottom-up as PFM requires): uncovered pixels are 0 0 0.
 Status writeNormalsPfm(const std::filesystem::path& path, const NormalBuffer& normals);
 
-// The shader's walk against bake/'s lookupTexture: for every pixel m covers,
-// the node the GLSL walk stopped at (read back) and the node the CPU walk
-// reaches from the same unit-cube point (also read back, exact floats); and
+// The shader's walk against format/'s lookupTexture: for every pixel m
+// covers, the node the GLSL walk stopped at (read back) and the node the CPU
+// walk reaches from the same unit-cube point (also read back, exact floats);
 // the texel reads the fetch-counting variant counted on each pixel against
 // those that walk needs (the grid entry, two per level descended, two at the
-// node it stops at); and the largest angle between the filtered normal the
-// shader draws (no mip-mapping) and bake/'s lookupTextureFiltered (float
-// rounding apart, they blend the same 8 normals with the same weights).
+// node it stops at); the largest angle between the normal the shader decodes
+// there and the CPU's decodeNormal of the same bytes (either encoding); and
+// the largest angle between the filtered normal the shader draws (no
+// mip-mapping) and lookupTextureFiltered (float rounding apart, they blend
+// the same 8 normals with the same weights).
 struct WalkAgreement {
   std::uint64_t pixels = 0, mismatches = 0, fetchMismatches = 0;
-  double maxFilteredDegrees = 0.0;
+  double maxNormalDegrees = 0.0, maxFilteredDegrees = 0.0;
 };
 Result<WalkAgreement> compareWalkWithCpu(const Scan& coarse, const ApoTexture& apo, int size, int views);
 

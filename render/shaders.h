@@ -1,7 +1,9 @@
 // GLSL sources of the passes (internal to render/). One vertex shader for
 // every mesh; fragment shaders for M or m with their own normals, and for m
-// with the APO, whose walk repeats bake/'s lookupTexture operation for
+// with the APO, whose walk repeats format/'s lookupTexture operation for
 // operation so that both land on the same node (see the exactness pass).
+// The walk uses the layout's constants (APO_*) from glslLayoutDefinitions()
+// (format/format.h), which passes.cpp puts before it.
 #pragma once
 
 #include <string_view>
@@ -108,7 +110,7 @@ uniform usampler2D apoTexture;
 uniform uint widthMask;      // texture width - 1 (a power of two)
 uniform int widthShift;      // log2(texture width)
 uniform int completeDepth;
-uniform uint normalEncoding; // 0: xyz8, 1: oct24
+uniform uint normalEncoding; // APO_ENCODING_XYZ8 or APO_ENCODING_OCT24
 uniform float unitScale;     // unit = world * unitScale + unitOffset
 uniform vec3 unitOffset;
 uniform bool mipmapping;
@@ -126,9 +128,9 @@ uvec4 texel(uint index) {
 vec2 signNotZero(vec2 v) { return vec2(v.x >= 0.0 ? 1.0 : -1.0, v.y >= 0.0 ? 1.0 : -1.0); }
 
 vec3 decodeNormal(uvec3 rgb) {
-  if (normalEncoding == 0u) return normalize(vec3(rgb) / 255.0 * 2.0 - 1.0);
+  if (normalEncoding == APO_ENCODING_XYZ8) return normalize(vec3(rgb) / APO_XYZ_MAX_LEVEL * 2.0 - 1.0);
   uint bits = rgb.r | (rgb.g << 8) | (rgb.b << 16);
-  vec2 uv = vec2(float(bits & 0xFFFu), float(bits >> 12)) / 4095.0 * 2.0 - 1.0;
+  vec2 uv = vec2(float(bits & APO_OCT_MASK), float(bits >> APO_OCT_BITS)) / APO_OCT_MAX_LEVEL * 2.0 - 1.0;
   vec3 p = vec3(uv, 1.0 - abs(uv.x) - abs(uv.y));
   if (p.z < 0.0) p.xy = (1.0 - abs(p.yx)) * signNotZero(p.xy);
   return normalize(p);
@@ -153,12 +155,12 @@ Walk walk(vec3 P, int maxDepth, float distance) {
   ivec3 cell = clamp(ivec3(ceil(P * fn)) - 1, ivec3(0), ivec3(int(n) - 1));
   uvec4 g = texel((uint(cell.x) * n + uint(cell.y)) * n + uint(cell.z));
   uint node = g.r | (g.g << 8) | (g.b << 16) | (g.a << 24);
-  if (node == 0xFFFFFFFFu) return w;
+  if (node == APO_EMPTY_CELL) return w;
   float width = 1.0 / fn;
   vec3 centre = (vec3(cell) + 0.5) * width;
   int depth = completeDepth;
   float pixelsPerUnitCell = sqrt(3.0) / unitScale * pixelsPerWorldUnitAtOne / distance;
-  for (int step = 0; step < 40; ++step) {
+  for (int step = 0; step < APO_MAX_WALK_STEPS; ++step) {
     uvec4 first = texel(node);
     uint childMask = first.a;
     if (childMask == 0u) return Walk(true, node, node, depth);
@@ -183,7 +185,7 @@ vec3 normalAt(Walk w) { return decodeNormal(texel(w.normalTexel).rgb); }
 
 // Paper 5.3: the normal blended trilinearly from the 8 cells around P at the
 // depth of P's own cell, each reached by its own walk; a neighbour that is
-// missing or stops more than one level higher gives P's own normal (bake/'s
+// missing or stops more than one level higher gives P's own normal (format/'s
 // lookupTextureFiltered does the same).
 vec3 filteredNormal(vec3 P, Walk own, float distance) {
   vec3 ownNormal = normalAt(own);
@@ -236,7 +238,7 @@ layout(location = 1) out vec4 unitPointAndCoverage;
 void main() {
   vec3 P = unitPointOf(worldPosition);
   Walk w = walk(P, 255, 1.0);
-  uint node = w.found ? w.node : 0xFFFFFFFFu;
+  uint node = w.found ? w.node : APO_EMPTY_CELL;
   nodeBytes = vec4(float(node & 0xFFu), float((node >> 8) & 0xFFu), float((node >> 16) & 0xFFu), float(node >> 24)) / 255.0;
   unitPointAndCoverage = vec4(P, 1.0);
 }

@@ -118,6 +118,19 @@ Scan makeTorus(float majorRadius, float minorRadius, int segments, int rings) {
   return mesh;
 }
 
+Scan makeSquareGrid(int n) {
+  Scan grid;
+  for (int i = 0; i <= n; ++i)
+    for (int j = 0; j <= n; ++j) grid.points.positions.emplace_back(float(i) / n, float(j) / n, 0.0f);
+  const auto id = [&](int i, int j) { return static_cast<std::uint32_t>(i * (n + 1) + j); };
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      grid.triangles.push_back({id(i, j), id(i + 1, j), id(i + 1, j + 1)});
+      grid.triangles.push_back({id(i, j), id(i + 1, j + 1), id(i, j + 1)});
+    }
+  return grid;
+}
+
 float distanceToTorus(const Vec3f& p, float majorRadius, float minorRadius) {
   const float ring = std::hypot(p.x(), p.y()) - majorRadius;
   return std::abs(std::hypot(ring, p.z()) - minorRadius);
@@ -259,7 +272,7 @@ BruteForceClosestPoint::BruteForceClosestPoint(const Scan& detail) : detail_(det
   if (!detail_.points.hasNormals()) ADD_FAILURE() << "BruteForceClosestPoint needs normals";
 }
 
-SurfacePoint BruteForceClosestPoint::closest(const Vec3f& query) const {
+std::optional<SurfacePoint> BruteForceClosestPoint::closest(const Vec3f& query) const {
   return detail_.isMesh() ? closestOnMesh(query) : closestPoint(query);
 }
 

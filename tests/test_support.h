@@ -31,7 +31,7 @@ CommandResult runCommand(const std::string& command);
 
 }  // namespace apo::test
 
-#include "bake/bake.h"
+#include "core/closest_point.h"
 #include "core/geometry.h"
 #include "core/ray_caster.h"
 
@@ -63,7 +63,7 @@ class BruteForceCaster : public RayCaster {
 class BruteForceClosestPoint : public ClosestPointFinder {
  public:
   explicit BruteForceClosestPoint(const Scan& detail);
-  SurfacePoint closest(const Vec3f& query) const override;
+  std::optional<SurfacePoint> closest(const Vec3f& query) const override;
 
  private:
   SurfacePoint closestOnMesh(const Vec3f& query) const;
@@ -79,6 +79,10 @@ Scan makeIcosphere(int subdivisions);
 // Torus around the z axis (major radius R, minor radius r), a grid of
 // `segments` x `rings` quads split into outward-facing triangles.
 Scan makeTorus(float majorRadius, float minorRadius, int segments, int rings);
+
+// The unit square in z = 0 as n x n quads, each split into two triangles
+// facing +z.
+Scan makeSquareGrid(int n);
 
 // Distance from p to that torus's surface.
 float distanceToTorus(const Vec3f& p, float majorRadius, float minorRadius);

@@ -3,7 +3,9 @@
 #include "bake/bake.h"
 
 #include "ingest/ingest.h"
+#include "pipeline/bake_seams.h"
 #include "tests/bake/bumpy_sphere.h"
+#include "pipeline/pipeline.h"
 #include "tests/test_support.h"
 
 #include <gmock/gmock.h>
@@ -211,7 +213,7 @@ TEST(Bake, PointsFromAScanGiveNormalsCloseToTheMeshBake) {
   SimulateScanOptions scanner;
   scanner.views = 10;
   scanner.raysPerSide = 300;
-  auto scanned = simulateScan(dense, scanner);
+  auto scanned = simulateRangeScan(dense, scanner);
   ASSERT_TRUE(scanned.ok());
   const auto path = test::freshTempDir() / "bumpy.ply";
   ASSERT_TRUE(writePly(path, scanned->scan).ok());
@@ -257,6 +259,33 @@ TEST(Bake, BadInputsAndOptionsAreRefused) {
   options = {};
   options.completeDepth = 7;
   EXPECT_EQ(bakeApo(coarse, coarse, options).error().kind, ErrorKind::Usage);
+}
+
+// A closest-point seam that cannot answer (FLANN failed to build, say).
+class UnavailableClosestPoint final : public ClosestPointFinder {
+ public:
+  std::optional<SurfacePoint> closest(const Vec3f&) const override { return std::nullopt; }
+};
+
+TEST(Bake, AClosestPointSearchThatFailsIsAnInternalErrorNotAnException) {
+  // M far smaller than m: every ray misses it, so every sample falls back.
+  const Scan coarse = test::makeIcosphere(2);
+  Scan detail = test::makeIcosphere(1);
+  for (Vec3f& p : detail.points.positions) p *= 0.01f;
+  detail.points.normals = areaWeightedVertexNormals(detail);
+  const test::BruteForceCaster caster(detail), coarseCaster(coarse);
+  const UnavailableClosestPoint closest;
+  DetailSurface surface;
+  surface.detail = &detail;
+  surface.caster = &caster;
+  surface.closest = &closest;
+  BakeOptions options;
+  options.coarseDepth = 3;
+  options.maxDepth = 4;
+  auto bake = bakeWith(surface, {&coarse, &coarseCaster}, options);
+  ASSERT_FALSE(bake.ok());
+  EXPECT_EQ(bake.error().kind, ErrorKind::Internal);
+  EXPECT_THAT(bake.error().message, HasSubstr("closest-point search over M failed"));
 }
 
 }  // namespace

@@ -5,7 +5,9 @@
 #include "bake/bake.h"
 #include "bake/sampling.h"
 
+#include "adapters/flann/flann_search.h"
 #include "ingest/ingest.h"
+#include "pipeline/bake_seams.h"
 #include "tests/bake/bumpy_sphere.h"
 #include "tests/test_support.h"
 
@@ -47,7 +49,8 @@ TEST(Sampling, EmbreeAndFlannAgreeWithBruteForceOnAMesh) {
   surface.detail = &detail;
   surface.caster = &caster;
   surface.closest = &closest;
-  auto reference = bakeWith(surface, coarse, smallOptions());
+  const test::BruteForceCaster coarseCaster(coarse);
+  auto reference = bakeWith(surface, {&coarse, &coarseCaster}, smallOptions());
   ASSERT_TRUE(reference.ok()) << reference.error().message;
   EXPECT_EQ(production->report.hits, reference->report.hits);
   EXPECT_EQ(production->report.fallbacks, reference->report.fallbacks);
@@ -62,7 +65,7 @@ TEST(Sampling, EmbreeDiscsAgreeWithBruteForceOnPoints) {
   points.triangles.clear();  // the vertices, with their exact normals
   auto production = bakeApo(points, coarse, smallOptions());
   ASSERT_TRUE(production.ok()) << production.error().message;
-  const std::vector<float> radii = discRadii(points.points);
+  const std::vector<float> radii = discRadii(points.points).value();
   const test::BruteForceCaster caster(points, radii);
   const test::BruteForceClosestPoint closest(points);
   DetailSurface surface;
@@ -70,7 +73,8 @@ TEST(Sampling, EmbreeDiscsAgreeWithBruteForceOnPoints) {
   surface.caster = &caster;
   surface.closest = &closest;
   for (const float r : radii) surface.pointAreas.push_back(r * r);
-  auto reference = bakeWith(surface, coarse, smallOptions());
+  const test::BruteForceCaster coarseCaster(coarse);
+  auto reference = bakeWith(surface, {&coarse, &coarseCaster}, smallOptions());
   ASSERT_TRUE(reference.ok()) << reference.error().message;
   EXPECT_EQ(production->report.hits, reference->report.hits);
   // Neighbouring discs overlap: where two are hit at nearly the same t, float
@@ -163,23 +167,6 @@ TEST(Sampling, SeveralOriginsPerTriangleFollowTheFieldBetterThanOne) {
   EXPECT_LT(stratifiedError, paperError / 3.0) << "1 origin: " << paperError << " deg, 16: " << stratifiedError;
   EXPECT_LT(stratifiedError, 2.0);  // 16 origins over a field turning ~3 rad per cell
   EXPECT_EQ(paper->report.rays, 2 * paper->report.leaves);  // one triangle, one origin per leaf
-}
-
-TEST(ClosestPointBarycentrics, MatchesDenseSearch) {
-  const Vec3f a(0, 0, 0), b(1, 0, 0), c(0.2f, 0.9f, 0.1f);
-  for (const Vec3f& p : {Vec3f(0.3f, 0.3f, 1.0f), Vec3f(-1, -1, 0), Vec3f(2, 0.1f, 0), Vec3f(0.5f, -0.5f, 0.3f),
-                         Vec3f(0.1f, 2.0f, -0.2f), Vec3f(0.9f, 0.9f, 0.0f)}) {
-    const Eigen::Vector3f w = sampling::closestPointBarycentrics(p, a, b, c);
-    const Vec3f q = w[0] * a + w[1] * b + w[2] * c;
-    float best = 1e9f;
-    const int n = 400;
-    for (int i = 0; i <= n; ++i)
-      for (int j = 0; i + j <= n; ++j)
-        best = std::min(best, (a + (b - a) * (float(i) / n) + (c - a) * (float(j) / n) - p).norm());
-    EXPECT_NEAR((q - p).norm(), best, 2e-3f);
-    EXPECT_NEAR(w.sum(), 1.0f, 1e-5f);
-    EXPECT_GE(w.minCoeff(), 0.0f);
-  }
 }
 
 }  // namespace

@@ -59,15 +59,20 @@ TEST(RunCommand, AMeshScanGoesThroughEveryStageIntoOneFolder) {
   ASSERT_EQ(manifest["stages"].size(), expected.size());
   for (std::size_t i = 0; i < expected.size(); ++i) {
     EXPECT_EQ(manifest["stages"][i]["status"], expected[i]) << manifest["stages"][i]["name"];
-    if (expected[i] == "succeeded") EXPECT_GT(manifest["stages"][i]["peak_memory_bytes"].get<std::uint64_t>(), 0u);
+    if (expected[i] == "succeeded") {
+      EXPECT_GT(manifest["stages"][i]["peak_memory_bytes"].get<std::uint64_t>(), 0u);
+    }
   }
-  EXPECT_EQ(manifest["options"]["simplify"]["faces"], "300");
-  EXPECT_EQ(manifest["options"]["render"]["size"], "64");
-  EXPECT_EQ(manifest["options"]["bake"]["error"], "0.05");  // defaults are recorded too
+  EXPECT_EQ(manifest["format_version"], 2);
+  EXPECT_EQ(manifest["options"]["simplify"]["faces"], 300);
+  EXPECT_EQ(manifest["options"]["render"]["size"], 64);
+  EXPECT_EQ(manifest["options"]["bake"]["error"], 0.05);  // defaults are recorded too
+  EXPECT_EQ(manifest["options"]["bake"]["normal-encoding"], "oct24");
+  EXPECT_EQ(manifest["options"]["reconstruct"]["max-points"], nullptr);  // unset: the method's default
   EXPECT_EQ(manifest["results"]["simplify"]["faces"]["out"], 300);
   // Filtered by default here (unfiltered, on this smooth sphere, the APO is
   // about as close as m's own normals: docs/render.md).
-  EXPECT_EQ(manifest["options"]["render"]["no-filter"], "false");
+  EXPECT_EQ(manifest["options"]["render"]["no-filter"], false);
   EXPECT_EQ(manifest["results"]["render"]["options"]["filtering"], true);
   const auto& overall = manifest["results"]["render"]["overall"];
   EXPECT_LT(overall["apo"]["mean"].get<double>(), overall["baseline"]["mean"].get<double>());
@@ -85,7 +90,7 @@ TEST(RunCommand, PointsAreReconstructedAndCanBeMThemselves) {
   EXPECT_TRUE(fs::exists(dir / "out" / "M.ply"));
   const nlohmann::json manifest = readJson(dir / "out" / "manifest.json");
   EXPECT_EQ(manifest["stages"][1]["status"], "succeeded");
-  EXPECT_EQ(manifest["options"]["detail_source"], "points");
+  EXPECT_EQ(manifest["options"]["detail-source"], "points");
   EXPECT_EQ(manifest["results"]["bake"]["detail"]["kind"], "points");
   // --json: the same manifest on stdout.
   EXPECT_THAT(result.output, HasSubstr(fmt::format("\"sha256\": \"{}\"", manifest["input"]["sha256"].get<std::string>())));
@@ -134,7 +139,7 @@ TEST(RunCommand, AConfigFileHoldsTheSameOptions) {
   ASSERT_EQ(result.exitCode, 0) << result.output;
   const nlohmann::json manifest = readJson(dir / "out" / "manifest.json");
   EXPECT_EQ(manifest["results"]["simplify"]["faces"]["out"], 200);
-  EXPECT_EQ(manifest["options"]["bake"]["error"], "0.1");
+  EXPECT_EQ(manifest["options"]["bake"]["error"], 0.1);
   EXPECT_EQ(manifest["results"]["render"]["views"].size(), 1u);
 }
 
@@ -158,6 +163,48 @@ TEST(RunCommand, AMissingScanIsBadInput) {
   const auto result = apo(fmt::format("run '{}' -o '{}'", (dir / "nothing.ply").string(), (dir / "out").string()));
   EXPECT_EQ(result.exitCode, 2) << result.output;
   EXPECT_THAT(result.output, HasSubstr("nothing.ply"));
+}
+
+// Every option of every stage is checked before the first stage runs: a bad
+// value is bad usage (exit 1) and nothing is written.
+TEST(RunCommand, BadOptionValuesFailBeforeAnyStage) {
+  const fs::path dir = test::freshTempDir();
+  const fs::path scan = writeMeshScan(dir / "sphere.ply");
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"--faces -5", "--faces"},         // an unsigned option given a negative number
+      {"--faces 2", "--faces"},          // below the smallest closed mesh
+      {"--error -1", "--error"},         // the bake's threshold, refused before ingest runs
+      {"--size 0", "--size"},            // the render's, last of the stages
+      {"--max-points -1", "--max-points"},
+      {"--normal-k 2", "--normal-k"},
+      {"--ratio 1.5", "--ratio"},
+  };
+  for (const auto& [option, name] : cases) {
+    const fs::path out = dir / "out";
+    const auto result = apo(fmt::format("run '{}' -o '{}' {}", scan.string(), out.string(), option));
+    EXPECT_EQ(result.exitCode, 1) << option << ": " << result.output;
+    EXPECT_THAT(result.output, HasSubstr(name)) << option;
+    EXPECT_FALSE(fs::exists(out)) << option << ": a stage ran";
+  }
+  // The same for a batch: refused before any worker starts.
+  const auto batch = apo(fmt::format("batch '{}' -o '{}' --error -1", dir.string(), (dir / "batch").string()));
+  EXPECT_EQ(batch.exitCode, 1) << batch.output;
+  EXPECT_FALSE(fs::exists(dir / "batch"));
+}
+
+TEST(Apo, AnUnknownSubcommandNamesTheNearestAndTheList) {
+  const auto typo = apo("rnu scan.ply -o out");
+  EXPECT_EQ(typo.exitCode, 1) << typo.output;
+  EXPECT_THAT(typo.output, HasSubstr("'rnu' is not an apo subcommand; did you mean 'run'?"));
+  EXPECT_THAT(typo.output, HasSubstr("ingest, simulate-scan, reconstruct, simplify, bake, lookup, render, run, batch"));
+  const auto far = apo("frobnicate");
+  EXPECT_EQ(far.exitCode, 1) << far.output;
+  EXPECT_THAT(far.output, Not(HasSubstr("did you mean")));
+  const auto none = apo("-q");
+  EXPECT_EQ(none.exitCode, 1) << none.output;
+  EXPECT_THAT(none.output, HasSubstr("a subcommand is required: ingest"));
+  EXPECT_EQ(apo("--help").exitCode, 0);
+  EXPECT_EQ(apo("--version").exitCode, 0);
 }
 
 // ---- apo batch ---------------------------------------------------------------

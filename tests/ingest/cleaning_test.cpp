@@ -62,32 +62,12 @@ TEST(MergeDuplicatePoints, MatchesBruteForceOnRandomGrid) {
   EXPECT_EQ(removed, 3000u - distinct.size());
 }
 
-TEST(DropDegenerateTriangles, RepeatedIndexAndZeroArea) {
-  Scan mesh;
-  mesh.points.positions = {{0, 0, 0}, {1, 0, 0}, {2, 0, 0}, {0, 1, 0}};
-  mesh.triangles = {{0, 1, 3}, {0, 0, 1}, {0, 1, 2}};  // fine, repeated, collinear
-  EXPECT_EQ(dropDegenerateTriangles(mesh), 2u);
-  ASSERT_EQ(mesh.triangles.size(), 1u);
-  EXPECT_EQ(mesh.triangles[0], (Triangle{0, 1, 3}));
-}
-
 TEST(DropDuplicateTriangles, SameVerticesInAnyOrder) {
   Scan mesh = squareOfTwoTriangles();
   mesh.triangles.push_back({2, 0, 1});
   mesh.triangles.push_back({0, 3, 2});  // opposite winding of {0,2,3}
   EXPECT_EQ(dropDuplicateTriangles(mesh), 2u);
   EXPECT_EQ(mesh.triangles, (std::vector<Triangle>{{0, 1, 2}, {0, 2, 3}}));
-}
-
-TEST(DropUnreferencedVertices, RenumbersTriangles) {
-  Scan mesh = squareOfTwoTriangles();
-  mesh.points.positions.insert(mesh.points.positions.begin(), Vec3f(9, 9, 9));
-  mesh.points.intensities.insert(mesh.points.intensities.begin(), 99.0f);
-  for (auto& t : mesh.triangles)
-    for (auto& v : t) ++v;
-  EXPECT_EQ(dropUnreferencedVertices(mesh), 1u);
-  EXPECT_EQ(mesh.triangles, (std::vector<Triangle>{{0, 1, 2}, {0, 2, 3}}));
-  EXPECT_EQ(mesh.points.intensities, (std::vector<float>{0, 1, 2, 3}));
 }
 
 TEST(NormaliseNormals, CountsZeroAndNanNormals) {

@@ -27,7 +27,7 @@ std::vector<Vec3f> noisySphere(std::size_t count, float noise, const Vec3f& cent
 TEST(EstimateOrientedNormals, SphereWithoutViewpointIsOutwardWithin10Degrees) {
   const Vec3f centre(1, -1, 3);
   const auto points = noisySphere(20000, 0.002f, centre);
-  const OrientedNormals result = estimateOrientedNormals(points, std::nullopt, 0);
+  const OrientedNormals result = estimateOrientedNormals(points, std::nullopt, 0).value();
   EXPECT_EQ(result.orientation, "mst");
   EXPECT_EQ(result.unoriented, 0u);
   float worst = 0.0f;
@@ -43,7 +43,7 @@ TEST(EstimateOrientedNormals, SeparateObjectsAreEachOrientedOutwards) {
   auto points = noisySphere(6000, 0.0f, left);
   const auto second = noisySphere(6000, 0.0f, right);
   points.insert(points.end(), second.begin(), second.end());
-  const OrientedNormals result = estimateOrientedNormals(points, std::nullopt, 0);
+  const OrientedNormals result = estimateOrientedNormals(points, std::nullopt, 0).value();
   EXPECT_EQ(result.islands, 2u);
   EXPECT_EQ(result.unoriented, 0u);
   for (std::size_t i = 0; i < points.size(); ++i) {
@@ -57,7 +57,7 @@ TEST(EstimateOrientedNormals, ViewpointInsideTheSphereTurnsNormalsInwards) {
   const auto points = noisySphere(5000, 0.0f, centre);
   Viewpoint sensor;
   sensor.origin = centre;
-  const OrientedNormals result = estimateOrientedNormals(points, sensor, 12);
+  const OrientedNormals result = estimateOrientedNormals(points, sensor, 12).value();
   EXPECT_EQ(result.orientation, "viewpoint");
   EXPECT_EQ(result.neighbours, 12);
   for (std::size_t i = 0; i < points.size(); ++i) EXPECT_LT(angleDegrees(result.normals[i], centre - points[i]), 10.0f) << i;
@@ -65,8 +65,8 @@ TEST(EstimateOrientedNormals, ViewpointInsideTheSphereTurnsNormalsInwards) {
 
 TEST(ChooseNeighbourCount, NoiseAsksForLargerNeighbourhoods) {
   const Vec3f centre = Vec3f::Zero();
-  const int clean = chooseNeighbourCount(noisySphere(20000, 0.0f, centre));
-  const int noisy = chooseNeighbourCount(noisySphere(20000, 0.02f, centre));
+  const int clean = chooseNeighbourCount(noisySphere(20000, 0.0f, centre)).value();
+  const int noisy = chooseNeighbourCount(noisySphere(20000, 0.02f, centre)).value();
   EXPECT_EQ(clean, kCandidateNeighbourCounts[0]);
   EXPECT_GT(noisy, clean);
 }
@@ -76,11 +76,11 @@ TEST(ChooseNeighbourCount, RefusesNeighbourhoodsAlongScanLines) {
   std::vector<Vec3f> rows;
   for (int row = 0; row < 40; ++row)
     for (int i = 0; i < 400; ++i) rows.emplace_back(i * 0.001f, row * 0.1f, 0.0f);
-  const int k = chooseNeighbourCount(rows);
+  const int k = chooseNeighbourCount(rows).value();
   EXPECT_EQ(k, kCandidateNeighbourCounts[std::size(kCandidateNeighbourCounts) - 1]);
 }
 
-TEST(ChooseNeighbourCount, TinyCloudsUseWhatTheyHave) { EXPECT_EQ(chooseNeighbourCount(noisySphere(5, 0, Vec3f::Zero())), 5); }
+TEST(ChooseNeighbourCount, TinyCloudsUseWhatTheyHave) { EXPECT_EQ(chooseNeighbourCount(noisySphere(5, 0, Vec3f::Zero())).value(), 5); }
 
 }  // namespace
 }  // namespace apo::normals

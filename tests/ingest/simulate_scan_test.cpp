@@ -9,6 +9,12 @@
 namespace apo {
 namespace {
 
+// The scanner against the brute-force caster, the independent reference.
+Result<SimulatedScan> scanOf(const Scan& mesh, const SimulateScanOptions& options) {
+  const test::BruteForceCaster caster(mesh);
+  return simulateScan(mesh, caster, options);
+}
+
 TEST(SimulateScan, NoiselessScanOfASphereLiesOnIt) {
   const Scan sphere = test::makeIcosphere(4);  // faceting error below 0.3%
   SimulateScanOptions options;
@@ -17,7 +23,7 @@ TEST(SimulateScan, NoiselessScanOfASphereLiesOnIt) {
   options.rangeNoise = 0.0;
   options.misregistration = 0.0;
   options.withNormals = true;
-  auto simulated = simulateScan(sphere, options);
+  auto simulated = scanOf(sphere, options);
   ASSERT_TRUE(simulated.ok()) << simulated.error().message;
   const auto& points = simulated->scan.points;
   ASSERT_GT(points.size(), 6u * 60 * 60 / 2);
@@ -37,7 +43,7 @@ TEST(SimulateScan, NoiseHasTheRequestedSpread) {
   options.raysPerSide = 80;
   options.rangeNoise = 0.01;  // of the bbox diagonal (2 * sqrt(3) for a unit sphere)
   options.misregistration = 0.0;
-  auto simulated = simulateScan(sphere, options);
+  auto simulated = scanOf(sphere, options);
   ASSERT_TRUE(simulated.ok());
   double sum = 0, sumSquares = 0;
   for (const Vec3f& p : simulated->scan.points.positions) {
@@ -59,10 +65,10 @@ TEST(SimulateScan, SameSeedSameScanOtherSeedOtherScan) {
   SimulateScanOptions options;
   options.views = 3;
   options.raysPerSide = 30;
-  auto a = simulateScan(sphere, options);
-  auto b = simulateScan(sphere, options);
+  auto a = scanOf(sphere, options);
+  auto b = scanOf(sphere, options);
   options.seed = 2;
-  auto c = simulateScan(sphere, options);
+  auto c = scanOf(sphere, options);
   ASSERT_TRUE(a.ok() && b.ok() && c.ok());
   EXPECT_EQ(a->scan.points.positions, b->scan.points.positions);
   EXPECT_NE(a->scan.points.positions, c->scan.points.positions);
@@ -71,7 +77,7 @@ TEST(SimulateScan, SameSeedSameScanOtherSeedOtherScan) {
 TEST(SimulateScan, RejectsBadOptions) {
   SimulateScanOptions options;
   options.views = 0;
-  auto result = simulateScan(test::makeIcosphere(1), options);
+  auto result = scanOf(test::makeIcosphere(1), options);
   ASSERT_FALSE(result.ok());
   EXPECT_EQ(result.error().kind, ErrorKind::Usage);
 }

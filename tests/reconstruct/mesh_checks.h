@@ -5,6 +5,7 @@
 
 #include "core/geometry.h"
 #include "ingest/ingest.h"
+#include "pipeline/pipeline.h"
 #include "tests/test_support.h"
 
 #include <gtest/gtest.h>
@@ -44,7 +45,7 @@ inline PointSet scannedPoints(const Scan& mesh, int views, int raysPerSide) {
   scanner.rangeNoise = 0.0005;
   scanner.misregistration = 0.0001;
   scanner.withNormals = true;
-  auto simulated = simulateScan(mesh, scanner);
+  auto simulated = simulateRangeScan(mesh, scanner);
   EXPECT_TRUE(simulated.ok()) << simulated.error().message;
   return simulated.ok() ? simulated->scan.points : PointSet{};
 }

@@ -3,6 +3,7 @@
 #include "reconstruct/reconstruct.h"
 
 #include "ingest/ingest.h"
+#include "pipeline/pipeline.h"
 #include "tests/test_support.h"
 
 #include <gmock/gmock.h>
@@ -26,7 +27,7 @@ PointSet scannedPoints(const Scan& mesh, const std::string& name) {
   scanner.raysPerSide = 90;
   scanner.rangeNoise = 0.0005;
   scanner.misregistration = 0.0001;
-  auto simulated = simulateScan(mesh, scanner);
+  auto simulated = simulateRangeScan(mesh, scanner);
   EXPECT_TRUE(simulated.ok());
   const fs::path path = test::freshTempDir() / (name + ".ply");
   EXPECT_TRUE(writePly(path, simulated->scan).ok());

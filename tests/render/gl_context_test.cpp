@@ -1,6 +1,6 @@
 // The GL toolkit under OSMesa against values fixed by the test itself: known
 // colours, vectors and texel bytes written by shaders and read back exactly.
-#include "render/gl_context.h"
+#include "adapters/osmesa/gl_context.h"
 #include "render/gl_program.h"
 #include "render/gl_readback.h"
 #include "render/gl_texture.h"

@@ -2,6 +2,7 @@
 // bake/'s CPU walk on every covered pixel.
 #include "render/render.h"
 
+#include "pipeline/bake_seams.h"
 #include "tests/bake/bumpy_sphere.h"
 #include "tests/test_support.h"
 
@@ -46,8 +47,24 @@ TEST_F(BumpySphereRender, GlslWalkAgreesWithTheCpuWalkOnEveryPixel) {
   EXPECT_EQ(agreement->mismatches, 0u);
   // The counting shader read exactly the texels that walk needs, everywhere.
   EXPECT_EQ(agreement->fetchMismatches, 0u);
+  // The shader decodes the same bytes to the same normal (float rounding of
+  // the normalisation apart).
+  EXPECT_LT(agreement->maxNormalDegrees, 0.001);
   // The filtered normal blends the same 8 normals with the same weights; only
   // float rounding (and the 32-bit normal buffer) separates them.
+  EXPECT_LT(agreement->maxFilteredDegrees, 0.01);
+}
+
+TEST_F(BumpySphereRender, GlslDecodesXyz8LikeTheCpu) {
+  // The same octree with the paper's 8 bits per axis.
+  auto xyz8 = encodeApo(*octree_, texture_->completeDepth, NormalEncoding::Xyz8, texture_->coarseDepth,
+                        texture_->maxDepth);
+  ASSERT_TRUE(xyz8.ok()) << xyz8.error().message;
+  auto agreement = compareWalkWithCpu(*coarse_, *xyz8, 128, 14);
+  ASSERT_TRUE(agreement.ok()) << agreement.error().message;
+  EXPECT_GT(agreement->pixels, 14u * 3000u);
+  EXPECT_EQ(agreement->mismatches, 0u);
+  EXPECT_LT(agreement->maxNormalDegrees, 0.001);
   EXPECT_LT(agreement->maxFilteredDegrees, 0.01);
 }
 

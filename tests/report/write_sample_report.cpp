@@ -10,7 +10,8 @@
 // a faceted sphere as the baseline m, the bumps sampled per 3-pixel cell as m
 // with the APO; the figures in render.json are measured on them by render/'s
 // own metrics, and bake.json is written by bake/'s writer.
-#include "cli/report_html.h"
+#include "report/report.h"
+#include "bake/bake.h"
 #include "core/file_io.h"
 #include "render/render.h"
 
@@ -113,7 +114,7 @@ Json writeScan(const fs::path& dir, const std::string& name, const std::string& 
   const RenderFigures figures = measureViews(views);
   for (std::size_t i = 0; i < views.size(); ++i) {
     const fs::path prefix = dir / renders / fmt::format("view{:02d}_", i);
-    const Image heatMap = errorHeatMap(figures.apoAngles[i], kSize, kSize, static_cast<float>(cli::kReportHeatMapDegrees));
+    const Image heatMap = errorHeatMap(figures.apoAngles[i], kSize, kSize, static_cast<float>(kReportHeatMapDegrees));
     for (const auto& [suffix, image] : {std::pair<const char*, const Image*>{"reference.png", &views[i].reference.shaded},
                                         {"baseline.png", &views[i].baseline.shaded},
                                         {"apo.png", &views[i].apo.shaded},
@@ -147,7 +148,7 @@ Json writeScan(const fs::path& dir, const std::string& name, const std::string& 
                        {"name", name},
                        {"sha256", "9f86d081884c7d659a2feaa0c55ad015a3bf4f1b2b0b822cd15d6c15b0f00a08"},
                        {"bytes", 48'211'904}};
-  manifest["options"] = {{"detail_source", "mesh"},
+  manifest["options"] = {{"detail-source", "mesh"},
                          {"ingest", {{"voxel", "0"}, {"normal-k", "16"}}},
                          {"simplify", {{"faces", "3000"}, {"policy", "gh"}}},
                          {"bake", {{"error", "0.05"}, {"samples", "4"}}},
@@ -178,7 +179,7 @@ Json writeScan(const fs::path& dir, const std::string& name, const std::string& 
                        {"texture", "texture.png"}, {"renders", renders}, {"report", "report.html"}};
 
   if (!writeOrReport(writeFileAtomically(dir / "manifest.json", manifest.dump(2) + "\n"))) return nullptr;
-  if (!writeOrReport(writeFileAtomically(dir / "report.html", cli::qaReportHtml(manifest)))) return nullptr;
+  if (!writeOrReport(writeFileAtomically(dir / "report.html", qaReportHtml(manifest)))) return nullptr;
   return manifest;
 }
 
@@ -204,9 +205,9 @@ int run(const fs::path& outDir) {
   const std::string failedDir = "broken/<svg onload=alert(1)>.pcd";
   if (!writeOrReport(writeFileAtomically(outDir / failedDir / "manifest.json", failed.dump(2) + "\n"))) return 1;
 
-  const std::vector<cli::BatchRow> rows = {{".", first}, {secondDir, second}, {failedDir, failed}};
+  const std::vector<BatchRow> rows = {{".", first}, {secondDir, second}, {failedDir, failed}};
   const Json summary = {{"scans", 3}, {"succeeded", 2}, {"failed", 1}, {"skipped_up_to_date", 0}, {"seconds", 84.6}};
-  if (!writeOrReport(writeFileAtomically(outDir / "index.html", cli::batchIndexHtml(rows, summary)))) return 1;
+  if (!writeOrReport(writeFileAtomically(outDir / "index.html", batchIndexHtml(rows, summary)))) return 1;
   std::printf("write_sample_report: %s and %s\n", (outDir / "report.html").c_str(), (outDir / "index.html").c_str());
   return 0;
 }

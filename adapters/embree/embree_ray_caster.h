@@ -1,0 +1,29 @@
+// The Embree adapter (target apo_embree): Embree 3 BVHs behind core's
+// RayCaster seam (core/ray_caster.h), for triangle meshes and for oriented
+// discs around points. Every Embree error, reported through its device
+// callback or by a failed allocation, comes back as an Internal error.
+#pragma once
+
+#include "core/error.h"
+#include "core/geometry.h"
+#include "core/ray_caster.h"
+
+#include <memory>
+#include <vector>
+
+namespace apo {
+
+// Embree BVH over a triangle mesh (hit.primitive = the triangle, u v its
+// barycentrics, geometricNormal (b-a) x (c-a)). BadInput for a point cloud.
+// The caster copies its input.
+Result<std::unique_ptr<RayCaster>> makeEmbreeMeshCaster(const Scan& mesh);
+
+// Embree BVH over one oriented disc per point (centre = the point, plane
+// normal = its normal, radius = radii[i], in world units). Discs are hit from
+// either side; hit.primitive is the point index, hit.geometricNormal the
+// point's normal (as given), u = v = 0. BadInput unless every point has a
+// normal and radii holds one finite positive radius per point. The caster
+// copies its input.
+Result<std::unique_ptr<RayCaster>> makeEmbreeDiscCaster(const PointSet& points, const std::vector<float>& radii);
+
+}  // namespace apo

@@ -1,0 +1,47 @@
+// The FLANN adapter (target apo_flann): exact k-d tree searches (one tree,
+// searched to the end; randomised trees were wrong 58% of the time on our
+// data, ../shared/STACK.md) behind core's closest-point seam and as plain
+// functions over point vectors. Every FLANN exception comes back as an
+// Internal error; the closest-point finders, called from worker threads,
+// answer nothing instead of throwing.
+#pragma once
+
+#include "core/closest_point.h"
+#include "core/error.h"
+#include "core/geometry.h"
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+namespace apo {
+
+// The closest point of M, a mesh with a unit normal per vertex or points with
+// unit normals. Mesh: the nearest point of the triangles around the 8 nearest
+// vertices, normal interpolated from the vertex normals (exact on even meshes
+// up to about 10 edge lengths from the surface; otherwise a farther point of
+// M, never a nearer one). Points: the nearest point and its normal. BadInput
+// when M is empty, lacks normals or has a triangle index out of range. The
+// finder copies what it needs.
+Result<std::unique_ptr<ClosestPointFinder>> makeFlannClosestPoint(const Scan& detail);
+// The same, with the k-d tree built on the first query (the bake's fallback,
+// rarely needed). `detail` must outlive the finder.
+Result<std::unique_ptr<ClosestPointFinder>> makeFlannClosestPointOnDemand(const Scan& detail);
+
+// Radius of each point's disc: its local spacing (the mean distance to its 6
+// nearest other points). Fewer than two points get radius 0.
+Result<std::vector<float>> discRadii(const PointSet& points);
+
+namespace flann_adapter {
+
+// Distance from each query to its nearest reference point (+infinity when
+// there is no reference point); batch search on every core, the result
+// independent of their number.
+Result<std::vector<float>> nearestDistances(const std::vector<Vec3f>& reference, const std::vector<Vec3f>& queries);
+
+// Index of each query's nearest reference point (UINT32_MAX when there is no
+// reference point).
+Result<std::vector<std::uint32_t>> nearestIndices(const std::vector<Vec3f>& reference, const std::vector<Vec3f>& queries);
+
+}  // namespace flann_adapter
+}  // namespace apo

@@ -1,0 +1,427 @@
+// The .apo file, format version 1 (docs/apo-format.md): a 128-byte
+// little-endian header, then the texture's texels. The reader trusts nothing:
+// every header field is checked, sizes against the actual file size before
+// anything is allocated for them, the payload against its SHA-256, and the
+// texel structure by decodeApo, so a corrupt file is a BadInput naming the
+// field, never a crash.
+#include "format/format.h"
+#include "format/texel_layout.h"
+#include "core/file_io.h"
+#include "core/image_io.h"
+
+#include <algorithm>
+#include <bit>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+#include <ostream>
+#include <string_view>
+#include <type_traits>
+
+namespace apo {
+namespace {
+
+namespace fs = std::filesystem;
+
+// A header field: where it is, how long, its name in messages and the doc.
+struct Field {
+  std::size_t offset;
+  std::size_t size;
+  std::string_view name;
+};
+
+// The header, in file order (docs/apo-format.md, "Header"). The writer
+// checks that it lands on these offsets, the tests read the bytes at them.
+constexpr Field kMagic{0, 8, "magic"};
+constexpr Field kVersion{8, 4, "format version"};
+constexpr Field kByteOrder{12, 4, "byte-order mark"};
+constexpr Field kHeaderSize{16, 4, "header size"};
+constexpr Field kScale{20, 8, "scale"};
+constexpr Field kOffsetX{28, 8, "offset x"};
+constexpr Field kOffsetY{36, 8, "offset y"};
+constexpr Field kOffsetZ{44, 8, "offset z"};
+constexpr Field kCoarseDepth{52, 1, "coarse depth"};
+constexpr Field kMaxDepth{53, 1, "max depth"};
+constexpr Field kCompleteDepth{54, 1, "complete depth"};
+constexpr Field kEncoding{55, 1, "normal encoding"};
+constexpr Field kWidth{56, 4, "width"};
+constexpr Field kHeight{60, 4, "height"};
+constexpr Field kLeafNodes{64, 8, "leaf nodes"};
+constexpr Field kInternalNodes{72, 8, "internal nodes"};
+constexpr Field kUsedTexels{80, 8, "used texels"};
+constexpr Field kPayloadSize{88, 8, "payload size"};
+constexpr Field kChecksum{96, 32, "payload SHA-256"};
+constexpr std::size_t kHeaderBytes = 128;
+static_assert(kChecksum.offset + kChecksum.size == kHeaderBytes);
+constexpr std::array<Field, 19> kFields = {kMagic,      kVersion,     kByteOrder,    kHeaderSize,   kScale,
+                                           kOffsetX,    kOffsetY,     kOffsetZ,      kCoarseDepth,  kMaxDepth,
+                                           kCompleteDepth, kEncoding, kWidth,        kHeight,       kLeafNodes,
+                                           kInternalNodes, kUsedTexels, kPayloadSize, kChecksum};
+
+// 0x89 catches 7-bit transfers, CR LF and LF catch line-ending conversions,
+// 0x1A stops a DOS `type` (the PNG signature's reasoning).
+constexpr std::array<std::uint8_t, 8> kMagicBytes = {0x89, 'A', 'P', 'O', '\r', '\n', 0x1A, '\n'};
+constexpr std::uint32_t kFormatVersion = 1;
+// Stored little-endian as 04 03 02 01; any other order means a writer that
+// ignored the byte order.
+constexpr std::uint32_t kByteOrderMark = 0x01020304;
+
+// The header's fields as stored.
+struct Header {
+  std::array<std::uint8_t, 8> magic{};
+  std::uint32_t version = 0, byteOrderMark = 0, headerSize = 0;
+  double scale = 0;
+  std::array<double, 3> offset{};
+  std::uint8_t coarseDepth = 0, maxDepth = 0, completeDepth = 0, encoding = 0;
+  std::uint32_t width = 0, height = 0;
+  std::uint64_t leafNodes = 0, internalNodes = 0, usedTexels = 0, payloadSize = 0;
+  std::array<std::uint8_t, 32> checksum{};
+};
+
+template <class... Args>
+Error fieldError(const Field& field, fmt::format_string<Args...> format, Args&&... args) {
+  return badInput("byte {} ({}): {}", field.offset, field.name, fmt::format(format, std::forward<Args>(args)...));
+}
+
+std::string hexBytes(const std::uint8_t* bytes, std::size_t count, std::string_view separator) {
+  std::string hex;
+  for (std::size_t i = 0; i < count; ++i) hex += fmt::format("{}{:02x}", i ? separator : "", bytes[i]);
+  return hex;
+}
+
+// ---- Writing ------------------------------------------------------------------
+
+class HeaderWriter {
+ public:
+  template <class T>
+  void integer(const Field& field, T value) {
+    static_assert(std::is_unsigned_v<T>);
+    at(field, sizeof(T));
+    for (std::size_t i = 0; i < sizeof(T); ++i) bytes_.push_back(static_cast<char>((value >> (8 * i)) & 0xFF));
+  }
+  void float64(const Field& field, double value) { integer(field, std::bit_cast<std::uint64_t>(value)); }
+  template <std::size_t N>
+  void raw(const Field& field, const std::array<std::uint8_t, N>& value) {
+    at(field, N);
+    bytes_.append(reinterpret_cast<const char*>(value.data()), N);
+  }
+  const std::string& bytes() const { return bytes_; }
+
+ private:
+  // The fields are written in order, each at its documented offset.
+  void at(const Field& field, std::size_t size) {
+    APO_CHECK_OP(bytes_.size(), ==, field.offset);
+    APO_CHECK_OP(size, ==, field.size);
+  }
+  std::string bytes_;
+};
+
+std::array<std::uint8_t, 32> checksumOf(const std::vector<std::uint8_t>& payload) {
+  const std::string hex = sha256OfBytes(
+      std::string_view(reinterpret_cast<const char*>(payload.data()), payload.size()));
+  APO_CHECK_OP(hex.size(), ==, 64u);
+  std::array<std::uint8_t, 32> digest{};
+  for (std::size_t i = 0; i < digest.size(); ++i)
+    digest[i] = static_cast<std::uint8_t>(std::stoul(hex.substr(2 * i, 2), nullptr, 16));
+  return digest;
+}
+
+Header headerOf(const ApoTexture& texture) {
+  Header header;
+  header.magic = kMagicBytes;
+  header.version = kFormatVersion;
+  header.byteOrderMark = kByteOrderMark;
+  header.headerSize = kHeaderBytes;
+  header.scale = texture.transform.scale;
+  header.offset = texture.transform.offset;
+  header.coarseDepth = texture.coarseDepth;
+  header.maxDepth = texture.maxDepth;
+  header.completeDepth = texture.completeDepth;
+  header.encoding = static_cast<std::uint8_t>(texture.encoding);
+  header.width = texture.width;
+  header.height = texture.height;
+  header.leafNodes = texture.leafNodes;
+  header.internalNodes = texture.internalNodes;
+  header.usedTexels = texture.usedTexels();
+  header.payloadSize = texture.texels.size();
+  header.checksum = checksumOf(texture.texels);
+  return header;
+}
+
+std::string headerBytes(const Header& header) {
+  HeaderWriter out;
+  out.raw(kMagic, header.magic);
+  out.integer(kVersion, header.version);
+  out.integer(kByteOrder, header.byteOrderMark);
+  out.integer(kHeaderSize, header.headerSize);
+  out.float64(kScale, header.scale);
+  out.float64(kOffsetX, header.offset[0]);
+  out.float64(kOffsetY, header.offset[1]);
+  out.float64(kOffsetZ, header.offset[2]);
+  out.integer(kCoarseDepth, header.coarseDepth);
+  out.integer(kMaxDepth, header.maxDepth);
+  out.integer(kCompleteDepth, header.completeDepth);
+  out.integer(kEncoding, header.encoding);
+  out.integer(kWidth, header.width);
+  out.integer(kHeight, header.height);
+  out.integer(kLeafNodes, header.leafNodes);
+  out.integer(kInternalNodes, header.internalNodes);
+  out.integer(kUsedTexels, header.usedTexels);
+  out.integer(kPayloadSize, header.payloadSize);
+  out.raw(kChecksum, header.checksum);
+  APO_CHECK_OP(out.bytes().size(), ==, kHeaderBytes);
+  return out.bytes();
+}
+
+// ---- Reading ------------------------------------------------------------------
+
+// Fields read from the bytes of the header the file has, which may be fewer
+// than 128: reading past them names the field the file ends in.
+class HeaderReader {
+ public:
+  HeaderReader(std::string_view bytes, std::uint64_t fileSize) : bytes_(bytes), fileSize_(fileSize) {}
+
+  template <class T>
+  Status integer(const Field& field, T& value) {
+    APO_RETURN_IF_ERROR(available(field));
+    value = 0;
+    for (std::size_t i = 0; i < sizeof(T); ++i)
+      value |= static_cast<T>(static_cast<T>(static_cast<std::uint8_t>(bytes_[field.offset + i])) << (8 * i));
+    return okStatus();
+  }
+  Status float64(const Field& field, double& value) {
+    std::uint64_t bits = 0;
+    APO_RETURN_IF_ERROR(integer(field, bits));
+    value = std::bit_cast<double>(bits);
+    return okStatus();
+  }
+  template <std::size_t N>
+  Status raw(const Field& field, std::array<std::uint8_t, N>& value) {
+    APO_RETURN_IF_ERROR(available(field));
+    std::memcpy(value.data(), bytes_.data() + field.offset, N);
+    return okStatus();
+  }
+
+ private:
+  Status available(const Field& field) const {
+    if (field.offset + field.size > bytes_.size())
+      return fieldError(field, "the file ends after {} bytes, inside the {}-byte header (truncated file)", fileSize_,
+                        kHeaderBytes);
+    return okStatus();
+  }
+  std::string_view bytes_;
+  std::uint64_t fileSize_;
+};
+
+Status checkMagic(const Header& header) {
+  if (header.magic != kMagicBytes)
+    return fieldError(kMagic, "expected {}, found {}: not an .apo file, or one altered by a text-mode transfer",
+                      hexBytes(kMagicBytes.data(), 8, " "), hexBytes(header.magic.data(), 8, " "));
+  return okStatus();
+}
+
+// The magic first, so any other file is reported as such even when short.
+Result<Header> parseHeader(std::string_view bytes, std::uint64_t fileSize) {
+  HeaderReader in(bytes, fileSize);
+  Header header;
+  APO_RETURN_IF_ERROR(in.raw(kMagic, header.magic));
+  APO_RETURN_IF_ERROR(checkMagic(header));
+  APO_RETURN_IF_ERROR(in.integer(kVersion, header.version));
+  APO_RETURN_IF_ERROR(in.integer(kByteOrder, header.byteOrderMark));
+  APO_RETURN_IF_ERROR(in.integer(kHeaderSize, header.headerSize));
+  APO_RETURN_IF_ERROR(in.float64(kScale, header.scale));
+  APO_RETURN_IF_ERROR(in.float64(kOffsetX, header.offset[0]));
+  APO_RETURN_IF_ERROR(in.float64(kOffsetY, header.offset[1]));
+  APO_RETURN_IF_ERROR(in.float64(kOffsetZ, header.offset[2]));
+  APO_RETURN_IF_ERROR(in.integer(kCoarseDepth, header.coarseDepth));
+  APO_RETURN_IF_ERROR(in.integer(kMaxDepth, header.maxDepth));
+  APO_RETURN_IF_ERROR(in.integer(kCompleteDepth, header.completeDepth));
+  APO_RETURN_IF_ERROR(in.integer(kEncoding, header.encoding));
+  APO_RETURN_IF_ERROR(in.integer(kWidth, header.width));
+  APO_RETURN_IF_ERROR(in.integer(kHeight, header.height));
+  APO_RETURN_IF_ERROR(in.integer(kLeafNodes, header.leafNodes));
+  APO_RETURN_IF_ERROR(in.integer(kInternalNodes, header.internalNodes));
+  APO_RETURN_IF_ERROR(in.integer(kUsedTexels, header.usedTexels));
+  APO_RETURN_IF_ERROR(in.integer(kPayloadSize, header.payloadSize));
+  APO_RETURN_IF_ERROR(in.raw(kChecksum, header.checksum));
+  return header;
+}
+
+Status checkIdentity(const Header& header) {
+  APO_RETURN_IF_ERROR(checkMagic(header));
+  if (header.version != kFormatVersion)
+    return fieldError(kVersion, "expected {} (the only version this reader knows), found {}", kFormatVersion,
+                      header.version);
+  if (header.byteOrderMark != kByteOrderMark)
+    return fieldError(kByteOrder, "expected {:#010x} stored as 04 03 02 01, found {:#010x}", kByteOrderMark,
+                      header.byteOrderMark);
+  if (header.headerSize != kHeaderBytes)
+    return fieldError(kHeaderSize, "expected {} for format version 1, found {}", kHeaderBytes, header.headerSize);
+  return okStatus();
+}
+
+Status checkTransform(const Header& header) {
+  if (!std::isfinite(header.scale) || !(header.scale > 0))
+    return fieldError(kScale, "expected a finite positive number, found {}", header.scale);
+  const Field* offsets[] = {&kOffsetX, &kOffsetY, &kOffsetZ};
+  for (int axis = 0; axis < 3; ++axis)
+    if (!std::isfinite(header.offset[axis]))
+      return fieldError(*offsets[axis], "expected a finite number, found {}", header.offset[axis]);
+  return okStatus();
+}
+
+Status checkSettings(const Header& header) {
+  if (header.maxDepth > texel::kMaxDepth)
+    return fieldError(kMaxDepth, "expected at most {}, found {}", texel::kMaxDepth, int{header.maxDepth});
+  if (header.coarseDepth > header.maxDepth)
+    return fieldError(kCoarseDepth, "expected at most the max depth {}, found {}", int{header.maxDepth},
+                      int{header.coarseDepth});
+  const int completeLimit = std::min<int>(texel::kMaxCompleteDepth, header.coarseDepth);
+  if (header.completeDepth > completeLimit)
+    return fieldError(kCompleteDepth, "expected at most min({}, coarse depth {}) = {}, found {}",
+                      texel::kMaxCompleteDepth, int{header.coarseDepth}, completeLimit, int{header.completeDepth});
+  if (header.encoding > static_cast<std::uint8_t>(NormalEncoding::Oct24))
+    return fieldError(kEncoding, "expected 0 (xyz8) or 1 (oct24), found {}", int{header.encoding});
+  return okStatus();
+}
+
+// Sizes against each other and against the bytes the file really has.
+Status checkSizes(const Header& header, std::uint64_t fileSize) {
+  if (header.width == 0 || !std::has_single_bit(header.width) || header.width > texel::kMaxWidth)
+    return fieldError(kWidth, "expected a power of two at most {}, found {}", texel::kMaxWidth, header.width);
+  const std::uint64_t texels = std::uint64_t{header.width} * header.height;  // < 2^46: no overflow
+  if (header.payloadSize != 4 * texels)
+    return fieldError(kPayloadSize, "expected width x height x 4 = {} x {} x 4 = {}, found {}", header.width,
+                      header.height, 4 * texels, header.payloadSize);
+  if (header.payloadSize != fileSize - kHeaderBytes)
+    return fieldError(kPayloadSize, "the header claims {} bytes of texels, but the file has {} bytes after the "
+                      "header (truncated or padded file)",
+                      header.payloadSize, fileSize - kHeaderBytes);
+  const std::uint64_t gridTexels = std::uint64_t{1} << (3 * header.completeDepth);
+  if (header.usedTexels < gridTexels || header.usedTexels > texels)
+    return fieldError(kUsedTexels, "expected between the {} grid texels and the {} texels of the texture, found {}",
+                      gridTexels, texels, header.usedTexels);
+  if (header.leafNodes > header.usedTexels || header.internalNodes > header.usedTexels ||
+      gridTexels + header.leafNodes + 2 * header.internalNodes != header.usedTexels)
+    return fieldError(kUsedTexels, "expected grid + leaves + 2 x internal nodes = {} + {} + 2 x {}, found {}",
+                      gridTexels, header.leafNodes, header.internalNodes, header.usedTexels);
+  if (header.height != texel::rowsFor(header.usedTexels, header.width))
+    return fieldError(kHeight, "expected {} rows for {} used texels at width {}, found {}",
+                      texel::rowsFor(header.usedTexels, header.width), header.usedTexels, header.width,
+                      header.height);
+  return okStatus();
+}
+
+// Every field but the checksum, in file order; fileSize is the whole file's.
+Status checkHeader(const Header& header, std::uint64_t fileSize) {
+  APO_RETURN_IF_ERROR(checkIdentity(header));
+  APO_RETURN_IF_ERROR(checkTransform(header));
+  APO_RETURN_IF_ERROR(checkSettings(header));
+  return checkSizes(header, fileSize);
+}
+
+ApoTexture textureOf(const Header& header, std::vector<std::uint8_t> texels) {
+  ApoTexture texture;
+  texture.transform.scale = header.scale;
+  texture.transform.offset = header.offset;
+  texture.coarseDepth = header.coarseDepth;
+  texture.maxDepth = header.maxDepth;
+  texture.completeDepth = header.completeDepth;
+  texture.encoding = static_cast<NormalEncoding>(header.encoding);
+  texture.width = header.width;
+  texture.height = header.height;
+  texture.leafNodes = header.leafNodes;
+  texture.internalNodes = header.internalNodes;
+  texture.texels = std::move(texels);
+  return texture;
+}
+
+// The file's header and its checked payload; errors without the path.
+Result<ApoTexture> readTexture(std::istream& in, std::uint64_t fileSize) {
+  std::string head(std::min<std::uint64_t>(fileSize, kHeaderBytes), '\0');
+  in.read(head.data(), static_cast<std::streamsize>(head.size()));
+  if (static_cast<std::size_t>(in.gcount()) != head.size())
+    return badInput("read {} of the first {} bytes", in.gcount(), head.size());
+  const Result<Header> header = parseHeader(head, fileSize);
+  if (!header.ok()) return header.error();
+  APO_RETURN_IF_ERROR(checkHeader(*header, fileSize));
+
+  // payloadSize now equals the bytes the file has.
+  std::vector<std::uint8_t> texels(header->payloadSize);
+  in.read(reinterpret_cast<char*>(texels.data()), static_cast<std::streamsize>(texels.size()));
+  if (static_cast<std::uint64_t>(in.gcount()) != texels.size())
+    return badInput("byte {}: read {} of the {} bytes of texels (the file changed while read?)", kHeaderBytes,
+                    in.gcount(), texels.size());
+  const std::array<std::uint8_t, 32> checksum = checksumOf(texels);
+  if (checksum != header->checksum)
+    return fieldError(kChecksum, "the texels hash to {}, the header says {} (corrupt payload)",
+                      hexBytes(checksum.data(), 32, ""), hexBytes(header->checksum.data(), 32, ""));
+
+  ApoTexture texture = textureOf(*header, std::move(texels));
+  // The structure; its node counts are checked against the header's.
+  const Result<Octree> decoded = decodeApo(texture);
+  if (!decoded.ok()) return badInput("payload: {}", decoded.error().message);
+  return texture;
+}
+
+}  // namespace
+
+Status writeApoFile(const fs::path& path, const ApoTexture& texture) {
+  const Header header = headerOf(texture);
+  // Never write a file the reader would refuse.
+  if (Status valid = checkHeader(header, kHeaderBytes + texture.texels.size()); !valid.ok())
+    return internalError("{}: refusing to write an inconsistent texture: {}", path.string(), valid.error().message);
+  const std::string head = headerBytes(header);
+  return writeFileAtomically(path, [&](std::ostream& out) {
+    out.write(head.data(), static_cast<std::streamsize>(head.size()));
+    out.write(reinterpret_cast<const char*>(texture.texels.data()),
+              static_cast<std::streamsize>(texture.texels.size()));
+    return okStatus();
+  });
+}
+
+Result<ApoTexture> readApoFile(const fs::path& path) {
+  APO_RETURN_IF_ERROR(checkReadableFile(path));
+  std::error_code ec;
+  const std::uintmax_t fileSize = fs::file_size(path, ec);
+  if (ec) return badInput("{}: cannot read its size: {}", path.string(), ec.message());
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return badInput("{}: cannot be opened: {}", path.string(), std::strerror(errno));
+  try {
+    Result<ApoTexture> texture = readTexture(in, fileSize);
+    if (!texture.ok()) return badInput("{}: {}", path.string(), texture.error().message);
+    return texture;
+  } catch (const std::bad_alloc&) {
+    return badInput("{}: not enough memory to hold its {} bytes", path.string(), fileSize);
+  }
+}
+
+std::string describeApoFileByte(std::string_view bytes, std::uint64_t offset) {
+  if (offset < kHeaderBytes) {
+    for (const Field& field : kFields)
+      if (offset >= field.offset && offset < field.offset + field.size)
+        return fmt::format("the header's {} (bytes {} to {})", field.name, field.offset, field.offset + field.size - 1);
+  }
+  const std::uint64_t texel = (offset - kHeaderBytes) / 4;
+  const char channel = "RGBA"[(offset - kHeaderBytes) % 4];
+  const std::string where = fmt::format("texel {}, channel {}", texel, channel);
+  const Result<Header> header = parseHeader(bytes.substr(0, std::min<std::size_t>(bytes.size(), kHeaderBytes)), bytes.size());
+  if (!header.ok() || header->completeDepth > texel::kMaxCompleteDepth) return where;
+  const std::uint64_t gridTexels = std::uint64_t{1} << (3 * header->completeDepth);
+  if (texel < gridTexels) return where + fmt::format(" (a grid entry: the grid has {} texels)", gridTexels);
+  if (texel < header->usedTexels) return where + fmt::format(" (a node: nodes run from texel {} to {})", gridTexels, header->usedTexels - 1);
+  return where + fmt::format(" (padding after the {} used texels)", header->usedTexels);
+}
+
+Result<ApoTexture> parseApoFile(std::string_view bytes) {
+  std::istringstream in{std::string(bytes)};
+  return readTexture(in, bytes.size());
+}
+
+Status writeApoPng(const fs::path& path, const ApoTexture& texture) {
+  return writePngRgba8(path, texture.width, texture.height, texture.texels);
+}
+
+}  // namespace apo

@@ -1,0 +1,134 @@
+// The CPU walks of the APO texture: the walk a shader does, operation for
+// operation (render/'s GLSL and the exactness check compare the two on every
+// pixel), its filtered form (paper 5.3), and the same walk in the in-memory
+// octree.
+#include "format/cells.h"
+#include "format/format.h"
+#include "format/texel_layout.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace apo {
+namespace {
+
+using namespace cells;
+using texel::kEmptyCell;
+
+bool insideUnitCube(const Vec3f& p) {
+  // Written so NaN coordinates are outside too.
+  return (p.array() >= 0.0f).all() && (p.array() <= 1.0f).all();
+}
+
+// Grid coordinate of p in [0, 1] among n cells: ceil(p n) - 1, clamped, so a
+// point on a cell boundary goes to the lower cell like childIndex's
+// centre-plane rule (p n is exact in float: n is a power of two).
+std::uint32_t gridCoordinate(float p, std::uint32_t n) {
+  const long cell = std::lround(std::ceil(p * static_cast<float>(n))) - 1;
+  return static_cast<std::uint32_t>(std::clamp(cell, 0L, static_cast<long>(n) - 1));
+}
+
+void checkTexel(const ApoTexture& texture, std::uint64_t index) {
+  APO_CHECK_OP(index, <, texture.usedTexels());
+}
+
+Lookup textureResult(const ApoTexture& texture, std::uint64_t node, std::uint64_t normalTexel, int depth) {
+  checkTexel(texture, normalTexel);
+  return {true, decodeNormal(texel::rgb(texture.texels, normalTexel), texture.encoding),
+          static_cast<std::uint32_t>(node), depth};
+}
+
+// A neighbour's normal enters the blend when its walk reaches P's depth or
+// stops one level above; a coarser leaf's mean describes a region too far
+// from P (measured: docs/benchmarks.md, "Filtering"), a missing one nothing.
+bool isFilterNeighbour(const Lookup& neighbour, int ownDepth) {
+  return neighbour.found && neighbour.depth + 1 >= ownDepth;
+}
+
+}  // namespace
+
+Lookup lookupTexture(const ApoTexture& texture, const Vec3f& unitPoint, int maxDepth) {
+  if (!insideUnitCube(unitPoint)) return {};
+  // The grid cell: the entry point of the walk (completeDepth 0: the root).
+  const std::uint32_t n = 1u << texture.completeDepth;
+  const Cell cell{gridCoordinate(unitPoint.x(), n), gridCoordinate(unitPoint.y(), n),
+                  gridCoordinate(unitPoint.z(), n)};
+  checkTexel(texture, cellIndex(cell, texture.completeDepth));
+  const std::uint32_t entry = texel::rgba32(texture.texels, cellIndex(cell, texture.completeDepth));
+  if (entry == kEmptyCell) return {};
+
+  // The walk a shader does, with the same float operations so it can
+  // reproduce it bit for bit: cell width 1/n and centre (i + 0.5) / n are
+  // exact; childIndex compares P with the centre in float; childCentre moves
+  // the centre by +-width/4 and the width halves, both exact in float.
+  float width = 1.0f / static_cast<float>(n);
+  Vec3f centre((static_cast<float>(cell.x) + 0.5f) * width, (static_cast<float>(cell.y) + 0.5f) * width,
+               (static_cast<float>(cell.z) + 0.5f) * width);
+  std::uint64_t node = entry;
+  int depth = texture.completeDepth;
+  for (;;) {
+    checkTexel(texture, node);
+    const std::uint8_t childMask = texel::alpha(texture.texels, node);
+    if (childMask == 0) return textureResult(texture, node, node, depth);
+    // A maxDepth above the grid stops at the grid's node: the levels above
+    // are not stored.
+    if (depth >= maxDepth) return textureResult(texture, node, node + 1, depth);
+    const int child = childIndex(centre, unitPoint);
+    // No child there: the shader shades with this node's (mean) normal.
+    if (!hasChild(childMask, child)) return textureResult(texture, node, node + 1, depth);
+    checkTexel(texture, node + 1);
+    const std::uint8_t kindMask = texel::alpha(texture.texels, node + 1);
+    std::uint64_t next = node + texel::rgb24(texture.texels, node);
+    for (int before = 0; before < child; ++before)
+      if (hasChild(childMask, before)) next += texelsOf(hasChild(kindMask, before));
+    node = next;
+    centre = childCentre(centre, width, child);
+    width *= 0.5f;
+    ++depth;
+  }
+}
+
+Lookup lookupTextureFiltered(const ApoTexture& texture, const Vec3f& unitPoint) {
+  const Lookup own = lookupTexture(texture, unitPoint);
+  if (!own.found) return own;
+  // The shader's float operations: lattice coordinates of P among the cell
+  // centres of its depth, the 8 corners around it, trilinear weights.
+  const float width = 1.0f / static_cast<float>(1u << own.depth);
+  const Eigen::Array3f lattice = unitPoint.array() / width - 0.5f;
+  const Eigen::Array3f base = lattice.floor();
+  const Eigen::Array3f t = lattice - base;
+  Vec3f sum = Vec3f::Zero();
+  for (int corner = 0; corner < 8; ++corner) {
+    const Eigen::Array3f c((corner >> 2) & 1, (corner >> 1) & 1, corner & 1);
+    const Eigen::Array3f weight3 = (1.0f - t) * (1.0f - c) + t * c;
+    const Vec3f at = ((base + c + 0.5f) * width).matrix();
+    const Lookup neighbour = lookupTexture(texture, at, own.depth);
+    sum += weight3.prod() * (isFilterNeighbour(neighbour, own.depth) ? neighbour.normal : own.normal);
+  }
+  Lookup filtered = own;
+  filtered.normal = sum.normalized();
+  return filtered;
+}
+
+Lookup lookupOctree(const Octree& octree, const Vec3f& unitPoint, int maxDepth) {
+  if (!insideUnitCube(unitPoint) || octree.nodes.empty()) return {};
+  // The same float walk as lookupTexture, from the root; Lookup::texel holds
+  // the index of the node in octree.nodes.
+  float width = 1.0f;
+  Vec3f centre(0.5f, 0.5f, 0.5f);
+  std::uint32_t index = 0;
+  int depth = 0;
+  for (;;) {
+    const OctreeNode& node = octree.nodes[index];
+    if (node.isLeaf() || depth >= maxDepth) return {true, node.normal, index, depth};
+    const int child = childIndex(centre, unitPoint);
+    if (!hasChild(node.childMask, child)) return {true, node.normal, index, depth};
+    checkBrood(octree, node);
+    index = childNode(node, child);
+    centre = childCentre(centre, width, child);
+    width *= 0.5f;
+    ++depth;
+  }
+}
+
+}  // namespace apo

@@ -1,0 +1,139 @@
+// format: the APO octree texture as data (Lacoste et al. 2007, section 4,
+// with the completion grid of section 6): the octree in memory, its encoding
+// into an RGBA8 texture, the decoder that validates it, the CPU lookups
+// (plain and filtered) that the shaders repeat, and the .apo file.
+// docs/apo-format.md describes the layout and the file byte by byte. bake/
+// writes this format; render/ and every other reader use only this room.
+#pragma once
+
+#include "core/error.h"
+#include "core/geometry.h"
+
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace apo {
+
+// ---- The unit cube --------------------------------------------------------
+
+// World to the unit cube by one uniform scale and a translation:
+// unit = world * scale + offset.
+struct UnitCubeTransform {
+  double scale = 1.0;
+  std::array<double, 3> offset = {0.0, 0.0, 0.0};
+
+  Vec3f toUnit(const Vec3f& world) const;
+  Vec3f toWorld(const Vec3f& unit) const;
+};
+
+
+// ---- The octree in memory -------------------------------------------------
+
+// Child c of a cell holds bit 2 for x, 1 for y, 0 for z; a bit is 1 when the
+// child lies on the lower side of the centre, and a point exactly on the
+// centre plane goes to the lower side (the paper's getChildIndex:
+// step(0, sign(centre - P))).
+int childIndex(const Vec3f& centre, const Vec3f& point);
+// Centre of child c of a cell of width `width` centred at `centre`.
+Vec3f childCentre(const Vec3f& centre, float width, int child);
+
+struct OctreeNode {
+  static constexpr std::uint32_t kNoChild = ~0u;
+  Vec3f normal = Vec3f::Zero();  // unit; internal nodes: area-weighted mean of the children
+  double weight = 0.0;           // area of m inside the cell (world units squared)
+  std::uint32_t firstChild = kNoChild;  // the children are contiguous, in increasing child index
+  std::uint8_t childMask = 0;           // bit c set when child c exists (intersects m)
+  std::uint8_t depth = 0;
+
+  bool isLeaf() const { return childMask == 0; }
+};
+
+// nodes[0] is the root, the unit cube [0, 1]^3 (centre 0.5, width 1).
+struct Octree {
+  UnitCubeTransform transform;
+  std::vector<OctreeNode> nodes;
+};
+
+// ---- Encoding (paper section 4, completion of section 6) -----------------
+
+enum class NormalEncoding : std::uint8_t { Xyz8 = 0, Oct24 = 1 };
+std::string normalEncodingName(NormalEncoding encoding);  // "xyz8", "oct24"
+
+// Three bytes of a unit normal: xyz8 rounds (n + 1) / 2 * 255 per axis;
+// oct24 is the octahedral map, 12 bits per coordinate.
+std::array<std::uint8_t, 3> encodeNormal(const Vec3f& normal, NormalEncoding encoding);
+Vec3f decodeNormal(const std::array<std::uint8_t, 3>& bytes, NormalEncoding encoding);  // unit length
+
+// The encoded APO: a 2D RGBA8 texture, row-major, width a power of two. Its
+// first gridTexels() texels are the completion grid, then the nodes below the
+// completion depth in breadth-first order (docs/apo-format.md).
+struct ApoTexture {
+  UnitCubeTransform transform;
+  std::uint8_t coarseDepth = 0, maxDepth = 0;  // the bake's settings
+  std::uint8_t completeDepth = 0;              // 0: a grid of one cell, the root
+  NormalEncoding encoding = NormalEncoding::Oct24;
+  std::uint32_t width = 0, height = 0;
+  std::uint64_t leafNodes = 0, internalNodes = 0;  // encoded nodes (below the grid)
+  std::vector<std::uint8_t> texels;                // width * height * 4 bytes
+
+  std::uint64_t gridTexels() const { return std::uint64_t{1} << (3 * completeDepth); }
+  std::uint64_t usedTexels() const;  // grid + nodes; the rest of the last row is zero
+};
+
+// Encodes the octree: levels above `completeDepth` are replaced by a dense
+// grid of (2^completeDepth)^3 entries; Usage error when completeDepth exceeds
+// 10 or a relative offset does not fit 24 bits.
+Result<ApoTexture> encodeApo(const Octree& octree, int completeDepth, NormalEncoding encoding,
+                             std::uint8_t coarseDepth, std::uint8_t maxDepth);
+// The octree back from the texture (levels below the grid decoded; the grid's
+// nodes become the children of complete internal levels with zero normals).
+Result<Octree> decodeApo(const ApoTexture& texture);
+
+// Where a lookup stopped.
+struct Lookup {
+  bool found = false;             // false: outside the cube or in an empty grid cell
+  Vec3f normal = Vec3f::Zero();   // decoded normal of the node it stopped at
+  std::uint32_t texel = 0;        // first texel of that node
+  int depth = 0;                  // that node's depth in the octree
+};
+
+// Walks the encoded texture exactly as the shader does: the grid cell of P,
+// then the child index from the sign of P minus the cell centre and the offset
+// from the masks, until a leaf, a missing child (the last node's normal), or
+// `maxDepth`. `unitPoint` is in unit-cube coordinates.
+Lookup lookupTexture(const ApoTexture& texture, const Vec3f& unitPoint, int maxDepth = 255);
+// Paper 5.3, as the shader's filtering does it: the normals of the 8 cells
+// around P at the depth of P's own cell, blended trilinearly; each is found by
+// its own walk (to that depth at most); a neighbour outside the octree, or
+// whose walk stops more than one level above P's cell, takes P's own normal.
+// Not found when P itself is outside.
+Lookup lookupTextureFiltered(const ApoTexture& texture, const Vec3f& unitPoint);
+// The same walk in the in-memory octree, from the root (for tests).
+Lookup lookupOctree(const Octree& octree, const Vec3f& unitPoint, int maxDepth = 255);
+
+// The .apo file (format version 1). Reading validates every field and the
+// payload checksum; a corrupt or truncated file is BadInput naming the field.
+Status writeApoFile(const std::filesystem::path& path, const ApoTexture& texture);
+Result<ApoTexture> readApoFile(const std::filesystem::path& path);
+// The same reader over a file's bytes in memory (the fuzzer's entry point).
+Result<ApoTexture> parseApoFile(std::string_view bytes);
+// What byte `offset` of an .apo file holds, in words: a header field, or a
+// texel's channel and whether the texel is in the grid, the nodes or the
+// padding (from the header, when it parses). For reports of differing files.
+std::string describeApoFileByte(std::string_view bytes, std::uint64_t offset);
+// The texture as an RGBA PNG (the paper's figure 5).
+Status writeApoPng(const std::filesystem::path& path, const ApoTexture& texture);
+
+// ---- The layout for shaders -------------------------------------------------
+
+// GLSL definitions of the layout's constants (the empty grid cell, the oct24
+// bit split, the encodings' codes, the deepest walk), generated from the C++
+// constants so that the shaders cannot drift from the encoder: every shader
+// that walks the texture starts with them. Valid in GLSL 4.50 and GLSL ES 3.00.
+std::string glslLayoutDefinitions();
+
+}  // namespace apo

@@ -1,0 +1,57 @@
+#include "pipeline/bake_seams.h"
+
+#include "adapters/embree/embree_ray_caster.h"
+#include "adapters/flann/flann_search.h"
+#include "core/timing.h"
+
+#include <spdlog/spdlog.h>
+
+#include <memory>
+#include <vector>
+
+namespace apo {
+namespace {
+
+// M's caster: its triangles, or a disc per point whose area is the point's
+// share of the surface.
+Result<std::unique_ptr<RayCaster>> detailCaster(const Scan& M, DetailSurface& surface) {
+  if (M.isMesh()) return makeEmbreeMeshCaster(M);
+  const Result<std::vector<float>> radii = discRadii(M.points);
+  if (!radii) return radii.error();
+  for (const float r : *radii) surface.pointAreas.push_back(r * r);
+  return makeEmbreeDiscCaster(M.points, *radii);
+}
+
+}  // namespace
+
+Result<Bake> bakeApo(const Scan& detail, const Scan& coarse, const BakeOptions& options, const ProgressCallback& onProgress) {
+  APO_RETURN_IF_ERROR(validateBakeOptions(options));
+  Stopwatch setup;
+  Scan M = detail;
+  if (M.isMesh() && M.points.normals.size() != M.points.size()) M.points.normals = areaWeightedVertexNormals(M);
+  if (!M.isMesh() && !M.points.hasNormals())
+    return badInput("the detail points have no normals: run `apo ingest` first, which estimates and orients them");
+  APO_RETURN_IF_ERROR(validateBakeInputs(M, coarse));
+
+  DetailSurface surface;
+  surface.detail = &M;
+  auto caster = detailCaster(M, surface);
+  if (!caster) return caster.error();
+  auto closest = makeFlannClosestPointOnDemand(M);
+  if (!closest) return closest.error();
+  auto coarseCaster = makeEmbreeMeshCaster(coarse);
+  if (!coarseCaster) return coarseCaster.error();
+  surface.caster = caster->get();
+  surface.closest = closest->get();
+  const double setupSeconds = setup.seconds();
+  spdlog::info("bake: Embree BVH over {} {} in {:.2f} s", M.isMesh() ? M.triangles.size() : M.points.size(),
+               M.isMesh() ? "triangles" : "points", setupSeconds);
+
+  auto bake = bakeWith(surface, {&coarse, coarseCaster->get()}, options, onProgress);
+  if (!bake) return bake;
+  bake->report.seconds.setup += setupSeconds;
+  bake->report.totalSeconds += setupSeconds;
+  return bake;
+}
+
+}  // namespace apo

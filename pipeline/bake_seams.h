@@ -1,0 +1,19 @@
+// The bake with its production seams (target apo_bake_seams): Embree for the
+// rays on M and on m, FLANN for M's closest point. Apart from the rest of
+// pipeline/ so that whatever needs a real bake (the render and bake tests,
+// the benchmarks) links Embree and FLANN but not CGAL or PCL.
+#pragma once
+
+#include "bake/bake.h"
+
+namespace apo {
+
+// bakeWith over seams built for `detail` and `coarse`: an Embree triangle BVH
+// of M (a mesh, given its area-weighted vertex normals when it has none) or
+// Embree discs of its points' spacing (points, which need normals: BadInput
+// otherwise), a FLANN closest-point search built on the first miss, and an
+// Embree BVH of m. Fails as bakeWith does.
+Result<Bake> bakeApo(const Scan& detail, const Scan& coarse, const BakeOptions& options,
+                     const ProgressCallback& onProgress = {});
+
+}  // namespace apo

@@ -1,0 +1,255 @@
+// `apo batch`: `apo run` on every scan under a folder, each in its own process
+// (a crash or a leak stays with its scan, and CGAL's address-dependent
+// tie-breaks cannot make one scan's output depend on another's), N at a
+// time, into OUTDIR/<relative path>/. A scan whose manifest records success
+// for the same input, options and tool version is skipped; any other is
+// redone from scratch. docs/run.md.
+#include "pipeline/pipeline.h"
+
+#include "core/file_io.h"
+#include "core/timing.h"
+#include "pipeline/manifest.h"
+#include "pipeline/process_pool.h"
+#include "report/report.h"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <fcntl.h>
+#include <sys/file.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+#include <map>
+#include <thread>
+
+namespace apo {
+namespace fs = std::filesystem;
+namespace {
+
+using Json = nlohmann::ordered_json;
+
+struct ScanJob {
+  fs::path scan;         // as found under SCANDIR
+  std::string relative;  // its path under SCANDIR, generic form: the output folder under OUTDIR
+  fs::path outDir;
+};
+
+// Scan files under `scanDir` by extension, sorted by relative path; OUTDIR is
+// not searched when it lies inside SCANDIR (its meshes are outputs).
+Result<std::vector<ScanJob>> findScans(const fs::path& scanDir, const fs::path& outDir) {
+  std::error_code error;
+  if (!fs::is_directory(scanDir, error)) return badInput("{}: not a folder", scanDir.string());
+  const fs::path outCanonical = fs::weakly_canonical(outDir, error);
+  std::vector<ScanJob> jobs;
+  fs::recursive_directory_iterator it(scanDir, fs::directory_options::skip_permission_denied, error);
+  if (error) return badInput("{}: cannot list: {}", scanDir.string(), error.message());
+  for (; it != fs::recursive_directory_iterator(); it.increment(error)) {
+    if (error) return badInput("{}: cannot list: {}", scanDir.string(), error.message());
+    if (it->is_directory(error) && fs::weakly_canonical(it->path(), error) == outCanonical) {
+      it.disable_recursion_pending();
+      continue;
+    }
+    if (!it->is_regular_file(error) || !hasScanExtension(it->path())) continue;
+    // Lexically, as found: fs::relative would follow a symlinked scan to its
+    // target and put its output folder wherever that lies (on the input).
+    const fs::path relative = it->path().lexically_relative(scanDir);
+    if (relative.empty() || *relative.begin() == "..")
+      return internalError("{}: found outside the scan folder {}", it->path().string(), scanDir.string());
+    jobs.push_back({it->path(), relative.generic_string(), outDir / relative});
+  }
+  std::sort(jobs.begin(), jobs.end(), [](const ScanJob& a, const ScanJob& b) { return a.relative < b.relative; });
+  return jobs;
+}
+
+// An output folder may be emptied only if apo made it: absent, an empty
+// folder, or a folder holding a manifest or a worker's log. Anything else in
+// the way (a file, a user's folder) is left alone.
+Status checkOutputFolderIsOurs(const fs::path& folder) {
+  std::error_code error;
+  const fs::file_status status = fs::symlink_status(folder, error);
+  if (!fs::exists(status)) return okStatus();
+  if (!fs::is_directory(status))
+    return badInput("{}: exists and is not a folder; the scan's outputs would replace it, so it is left alone",
+                    folder.string());
+  if (fs::is_empty(folder, error) || fs::exists(folder / "manifest.json", error) || fs::exists(folder / "run.log", error))
+    return okStatus();
+  return badInput("{}: a folder that apo did not write (no manifest.json); it is left alone", folder.string());
+}
+
+// Holds OUTDIR/.apo-batch.lock while the batch runs: two batches writing the
+// same folder would undo each other's work. The lock goes with the process.
+class OutputLock {
+ public:
+  static Result<OutputLock> take(const fs::path& outDir) {
+    std::error_code error;
+    fs::create_directories(outDir, error);
+    if (error) return internalError("{}: cannot create the output folder: {}", outDir.string(), error.message());
+    const fs::path lockPath = outDir / ".apo-batch.lock";
+    const int fd = open(lockPath.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    if (fd < 0) return internalError("{}: cannot open: {}", lockPath.string(), std::strerror(errno));
+    if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
+      close(fd);
+      return usageError("{}: another apo batch is writing to this folder", outDir.string());
+    }
+    return OutputLock(fd);
+  }
+  OutputLock(OutputLock&& other) noexcept : fd_(std::exchange(other.fd_, -1)) {}
+  OutputLock& operator=(OutputLock&&) = delete;
+  ~OutputLock() {
+    if (fd_ >= 0) close(fd_);
+  }
+
+ private:
+  explicit OutputLock(int fd) : fd_(fd) {}
+  int fd_;
+};
+
+// The worker's command line: `apo run SCAN -o DIR --threads N` and the
+// batch's stage options.
+std::vector<std::string> workerCommand(const BatchSettings& settings, const ScanJob& job, int threads) {
+  std::vector<std::string> arguments = {"apo", "run", job.scan.string(), "-o", job.outDir.string(), "--threads",
+                                        std::to_string(threads)};
+  arguments.insert(arguments.end(), settings.workerArguments.begin(), settings.workerArguments.end());
+  return arguments;
+}
+
+// The scans, N at a time; the summary counts how each ended.
+class Batch {
+ public:
+  Batch(const BatchSettings& settings, std::vector<ScanJob> jobs)
+      : settings_(settings),
+        jobs_(std::move(jobs)),
+        options_(optionsJson(settings.options)),
+        workers_(std::max(1, std::min(settings.jobs, static_cast<int>(jobs_.size())))),
+        pool_(settings.scanTimeout) {
+    const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+    threadsEach_ = std::max(1, cores / workers_);
+    summary_.scans = jobs_.size();
+  }
+
+  Status run() {
+    spdlog::info("batch: {} scans under {}, {} at a time with {} thread(s) each -> {}", jobs_.size(),
+                 settings_.scanDir.string(), workers_, threadsEach_, settings_.outDir.string());
+    std::size_t next = 0;
+    while (next < jobs_.size() || pool_.running() > 0) {
+      while (next < jobs_.size() && static_cast<int>(pool_.running()) < workers_) APO_RETURN_IF_ERROR(startOrSkip(jobs_[next++]));
+      if (pool_.running() == 0) continue;
+      const Result<ProcessPool::Ended> ended = pool_.waitForOne();
+      if (!ended) return ended.error();
+      const auto it = running_.find(ended->pid);
+      if (it == running_.end()) continue;
+      const ScanJob& job = *it->second;
+      running_.erase(it);
+      recordEnd(job, *ended);
+    }
+    return okStatus();
+  }
+
+  const std::vector<ScanJob>& jobs() const { return jobs_; }
+  BatchSummary& summary() { return summary_; }
+
+ private:
+  // Skips a scan whose finished run stands, else starts its worker afresh.
+  Status startOrSkip(const ScanJob& job) {
+    auto digest = sha256OfFile(job.scan);
+    const std::optional<Json> previous = manifest::read(job.outDir);
+    if (digest && previous && manifest::upToDate(*previous, *digest, options_)) {
+      ++summary_.upToDate;
+      finish(job, "up to date, skipped");
+      return okStatus();
+    }
+    // Redone from scratch: whatever an earlier, interrupted run left goes.
+    if (Status ours = checkOutputFolderIsOurs(job.outDir); !ours.ok()) {
+      ++summary_.failed;
+      finish(job, "FAILED: " + ours.error().message);
+      return okStatus();
+    }
+    std::error_code error;
+    fs::remove_all(job.outDir, error);
+    fs::create_directories(job.outDir, error);
+    if (error) return internalError("{}: cannot create: {}", job.outDir.string(), error.message());
+    auto pid = pool_.start(workerCommand(settings_, job, threadsEach_), job.outDir / "run.log");
+    if (!pid) return pid.error();
+    running_.emplace(*pid, &job);
+    return okStatus();
+  }
+
+  // Counts the scan by its manifest; a worker that ended without recording
+  // its end (a crash, a kill) gets a manifest saying so.
+  void recordEnd(const ScanJob& job, const ProcessPool::Ended& ended) {
+    if (!WIFEXITED(ended.status) || WEXITSTATUS(ended.status) != 0) {
+      const Json previous = manifest::read(job.outDir).value_or(manifest::placeholder(job.scan));
+      const std::string reason = describeEnd(ended, settings_.scanTimeout) + " (see run.log)";
+      if (Status s = manifest::write(job.outDir, manifest::markAbnormalEnd(previous, reason)); !s.ok())
+        spdlog::warn("{}", s.error().message);
+    }
+    const std::optional<Json> written = manifest::read(job.outDir);
+    if (written && written->value("status", "") == "succeeded") {
+      ++summary_.succeeded;
+      finish(job, "succeeded");
+      return;
+    }
+    ++summary_.failed;
+    const Json error = written && written->contains("error") ? (*written)["error"] : Json();
+    finish(job, error.is_object() ? fmt::format("FAILED at {}: {}", error.value("stage", "?"), error.value("message", "?"))
+                                  : "FAILED");
+  }
+
+  void finish(const ScanJob& job, const std::string& outcome) {
+    ++done_;
+    spdlog::info("[{}/{}] {}: {}", done_, jobs_.size(), job.relative, outcome);
+  }
+
+  const BatchSettings& settings_;
+  const std::vector<ScanJob> jobs_;
+  const Json options_;
+  const int workers_;
+  int threadsEach_ = 1;
+  ProcessPool pool_;
+  std::map<pid_t, const ScanJob*> running_;
+  std::size_t done_ = 0;
+  BatchSummary summary_;
+};
+
+// index.html and summary.json, from every scan's manifest.
+Status writeBatchPages(const BatchSettings& settings, const std::vector<ScanJob>& jobs, const BatchSummary& summary) {
+  std::vector<BatchRow> rows;
+  for (const ScanJob& job : jobs) {
+    const std::optional<Json> found = manifest::read(job.outDir);
+    rows.push_back({job.relative, found ? nlohmann::json::parse(found->dump()) : nlohmann::json::object()});
+  }
+  const nlohmann::json summaryJson = {{"scans", summary.scans},
+                                      {"succeeded", summary.succeeded},
+                                      {"failed", summary.failed},
+                                      {"skipped_up_to_date", summary.upToDate},
+                                      {"seconds", summary.seconds}};
+  APO_RETURN_IF_ERROR(writeFileAtomically(settings.outDir / "index.html", batchIndexHtml(rows, summaryJson)));
+  return writeFileAtomically(settings.outDir / "summary.json", summaryJson.dump(2) + "\n");
+}
+
+}  // namespace
+
+Result<BatchSummary> runBatch(const BatchSettings& settings) {
+  const Stopwatch stopwatch;
+  APO_RETURN_IF_ERROR(validateRunOptions(settings.options));
+  auto lock = OutputLock::take(settings.outDir);
+  if (!lock) return lock.error();
+  auto jobs = findScans(settings.scanDir, settings.outDir);
+  if (!jobs) return jobs.error();
+  if (jobs->empty())
+    return badInput("{}: no scans found (extensions: {})", settings.scanDir.string(), scanExtensionList());
+  Batch batch(settings, std::move(jobs).value());
+  APO_RETURN_IF_ERROR(batch.run());
+  BatchSummary& summary = batch.summary();
+  summary.seconds = stopwatch.seconds();
+  APO_RETURN_IF_ERROR(writeBatchPages(settings, batch.jobs(), summary));
+  spdlog::info("batch: {} succeeded, {} failed, {} up to date in {:.1f} s -> {}", summary.succeeded, summary.failed,
+               summary.upToDate, summary.seconds, (settings.outDir / "index.html").string());
+  return summary;
+}
+
+}  // namespace apo

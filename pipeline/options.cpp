@@ -1,0 +1,74 @@
+// A run's options: defaults, validation and their JSON for the manifest,
+// keyed by the names `apo run` and a --config file give them (negated flags
+// as their --no- form).
+#include "pipeline/pipeline.h"
+
+namespace apo {
+namespace {
+
+using Json = nlohmann::ordered_json;
+
+Json vectorOrNull(const std::optional<Vec3f>& v) {
+  if (!v) return nullptr;
+  return Json::array({v->x(), v->y(), v->z()});
+}
+
+Json ingestJson(const IngestOptions& o) {
+  return {{"no-merge-duplicates", !o.mergeDuplicates}, {"remove-outliers", o.removeOutliers},
+          {"outlier-k", o.outlierNeighbours},         {"outlier-std", o.outlierStdDevs},
+          {"voxel", o.voxelSize},                     {"no-normals", !o.estimateNormals},
+          {"normal-k", o.normalNeighbours},           {"force-normals", o.forceNormalEstimation},
+          {"sensor", vectorOrNull(o.sensorPosition)}};
+}
+
+Json reconstructJson(const ReconstructOptions& o) {
+  return {{"method", methodName(o.method)},
+          {"max-points", o.maxPoints ? Json(*o.maxPoints) : Json(nullptr)},
+          {"trim", o.trim},
+          {"radius-ratio", o.radiusRatioBound},
+          {"min-component", o.minComponent},
+          {"spacing-k", o.spacingNeighbours},
+          {"poisson-distance", o.poissonSpacing},
+          {"poisson-radius", o.poissonRadius},
+          {"scale", o.scaleSpaceScale},
+          {"seed", o.seed}};
+}
+
+Json simplifyJson(const SimplifyOptions& o) {
+  return {{"faces", o.targetFaces}, {"ratio", o.ratio}, {"policy", o.policy == SimplifyPolicy::LindstromTurk ? "lt" : "gh"}};
+}
+
+Json bakeJson(const BakeOptions& o) {
+  return {{"coarse-depth", o.coarseDepth},   {"max-depth", o.maxDepth},
+          {"error", o.error},                {"max-distance", o.maxDistance},
+          {"samples", o.samples},            {"complete-depth", o.completeDepth},
+          {"normal-encoding", normalEncodingName(o.encoding)}};
+}
+
+Json renderJson(const RenderOptions& o) {
+  return {{"size", o.size}, {"views", o.views}, {"no-mipmap", !o.mipmapping}, {"no-filter", !o.filtering},
+          {"frames", o.timedFrames}};
+}
+
+}  // namespace
+
+std::string detailSourceName(DetailSource source) { return source == DetailSource::Points ? "points" : "mesh"; }
+
+Status validateRunOptions(const RunOptions& options) {
+  APO_RETURN_IF_ERROR(validateIngestOptions(options.ingest));
+  APO_RETURN_IF_ERROR(validateReconstructOptions(options.reconstruct));
+  APO_RETURN_IF_ERROR(validateSimplifyOptions(options.simplify));
+  APO_RETURN_IF_ERROR(validateBakeOptions(options.bake));
+  return validateRenderOptions(options.render);
+}
+
+nlohmann::ordered_json optionsJson(const RunOptions& options) {
+  return {{"detail-source", detailSourceName(options.detailSource)},
+          {"ingest", ingestJson(options.ingest)},
+          {"reconstruct", reconstructJson(options.reconstruct)},
+          {"simplify", simplifyJson(options.simplify)},
+          {"bake", bakeJson(options.bake)},
+          {"render", renderJson(options.render)}};
+}
+
+}  // namespace apo

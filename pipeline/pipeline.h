@@ -1,0 +1,117 @@
+// pipeline: the whole job on one scan (`apo run`: ingest, reconstruct,
+// simplify, bake, render, report) and on a folder of scans (`apo batch`, one
+// worker process per scan, resumable), with the manifest each run writes.
+// docs/run.md describes OUTDIR, manifest.json and resuming. This is the room
+// that wires the stages to their production seams (Embree, FLANN:
+// pipeline/bake_seams.h).
+#pragma once
+
+#include "bake/bake.h"
+#include "core/error.h"
+#include "ingest/ingest.h"
+#include "pipeline/bake_seams.h"
+#include "pipeline/progress.h"
+#include "reconstruct/reconstruct.h"
+#include "render/render.h"
+
+#include <nlohmann/json.hpp>
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace apo {
+
+// manifest.json's version: 2 records the options as typed values taken from
+// the option structs (version 1 held the command line's strings).
+inline constexpr int kManifestFormatVersion = 2;
+inline constexpr const char* kRenderFolder = "render";
+
+// A run's stages, in order, as the manifest and the progress lines name them.
+inline constexpr std::array<const char*, 6> kRunStages = {"ingest", "reconstruct", "simplify", "bake", "render", "report"};
+inline constexpr std::size_t kRunStageCount = kRunStages.size();
+
+// M for the bake and the reference renders: the dense mesh (reconstructed, or
+// the input mesh itself), or the scan's points with their normals.
+enum class DetailSource { Mesh, Points };
+std::string detailSourceName(DetailSource source);  // "mesh", "points"
+
+// The QA report's renders: 512 px, 3 timed frames, filtered (`apo render`
+// alone defaults to 1024 px, 5 frames, unfiltered).
+inline RenderOptions reportRenderOptions() {
+  RenderOptions render;
+  render.size = 512;
+  render.timedFrames = 3;
+  render.filtering = true;
+  return render;
+}
+
+// Every option of every stage of a run, with their defaults.
+struct RunOptions {
+  DetailSource detailSource = DetailSource::Mesh;
+  IngestOptions ingest;
+  ReconstructOptions reconstruct;
+  SimplifyOptions simplify;
+  BakeOptions bake;
+  RenderOptions render = reportRenderOptions();
+};
+
+// Every stage's options checked, so that a bad value fails before any stage
+// runs: a Usage error naming the option.
+Status validateRunOptions(const RunOptions& options);
+
+// The manifest's "options": every field of every stage's options by its
+// command-line name without dashes (the names a --config file uses), typed
+// (numbers, booleans, strings; null for unset optional values). Resuming
+// compares it.
+nlohmann::ordered_json optionsJson(const RunOptions& options);
+
+struct RunSettings {
+  std::filesystem::path input, outDir;
+  RunOptions options;
+};
+
+struct RunOutcome {
+  Status status;
+  nlohmann::ordered_json manifest;  // as written to OUTDIR/manifest.json
+};
+
+// The stages in order, recording each in OUTDIR/manifest.json as it ends (a
+// killed run leaves one that says "running" and where it stopped); outputs
+// are written atomically. The options are validated first.
+RunOutcome runPipeline(const RunSettings& settings, Progress& progress);
+
+// ---- apo batch ---------------------------------------------------------------
+
+struct BatchSettings {
+  std::filesystem::path scanDir, outDir;
+  int jobs = 1;              // scans at a time; the cores are shared among them
+  double scanTimeout = 0.0;  // seconds; 0: none
+  RunOptions options;        // what each scan runs with (resume compares them)
+  // The same options as `apo run` arguments, passed to every worker as they
+  // are (the worker adds the scan, its output folder and its threads).
+  std::vector<std::string> workerArguments;
+};
+
+struct BatchSummary {
+  std::uint64_t scans = 0, succeeded = 0, failed = 0, upToDate = 0;
+  double seconds = 0.0;
+};
+
+// `apo run` on every scan under scanDir (by extension, recursively, sorted by
+// path) in its own process, into outDir/<path under scanDir>/, skipping the
+// scans whose manifest records success for the same input, options and tool
+// version; then outDir/index.html and summary.json. BadInput when scanDir
+// holds no scan; Usage when another batch holds outDir. A failed scan is
+// counted, never an error.
+Result<BatchSummary> runBatch(const BatchSettings& settings);
+
+// ---- The stages with their production seams ------------------------------------
+
+// simulateScan (ingest.h) with an Embree BVH of the mesh.
+Result<SimulatedScan> simulateRangeScan(const Scan& mesh, const SimulateScanOptions& options);
+
+}  // namespace apo

@@ -1,0 +1,199 @@
+// `apo run`'s pipeline on one scan, in one process: ingest -> reconstruct
+// (skipped for a mesh: M is the mesh) -> simplify -> bake -> render ->
+// report, recording every stage in OUTDIR/manifest.json (docs/run.md). The
+// manifest is rewritten after each stage, so a run that is killed leaves one
+// that says "running" and where it stopped.
+#include "pipeline/pipeline.h"
+
+#include "core/file_io.h"
+#include "core/timing.h"
+#include "pipeline/manifest.h"
+#include "report/report.h"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <string>
+
+namespace apo {
+namespace fs = std::filesystem;
+namespace {
+
+using Json = nlohmann::ordered_json;
+enum StageIndex : std::size_t { kIngest, kReconstruct, kSimplify, kBake, kRender, kReport };
+
+// What the stages hand to one another.
+struct PipelineData {
+  Scan scan;    // ingested: points with normals, or a mesh
+  Scan dense;   // M as a mesh (the scan itself when it is one)
+  Scan coarse;  // m
+  ApoTexture texture;
+};
+
+class Run {
+ public:
+  Run(const RunSettings& settings, Progress& progress)
+      : settings_(settings), progress_(progress), manifest_(manifest::initial(settings)) {}
+
+  // Runs the stages until one fails; the manifest records each.
+  Status execute() {
+    APO_RETURN_IF_ERROR(save());
+    APO_RETURN_IF_ERROR(stage(kIngest, [&] { return ingest(); }));
+    if (data_.scan.isMesh()) {
+      skip(kReconstruct);
+      data_.dense = data_.scan;
+    } else {
+      APO_RETURN_IF_ERROR(stage(kReconstruct, [&] { return reconstruct(); }));
+    }
+    APO_RETURN_IF_ERROR(stage(kSimplify, [&] { return simplify(); }));
+    const Scan& detail = detailForBake();
+    APO_RETURN_IF_ERROR(stage(kBake, [&] { return bake(detail); }));
+    APO_RETURN_IF_ERROR(stage(kRender, [&] { return render(detail); }));
+    APO_RETURN_IF_ERROR(stage(kReport, [&] { return report(); }));
+    manifest_["status"] = "succeeded";
+    return save();
+  }
+
+  // After a failed execute(): the manifest says so (best effort: the failure
+  // may be the output folder itself).
+  void recordFailure(const Error& error) {
+    manifest_["status"] = "failed";
+    if (manifest_["error"].is_null()) manifest_["error"] = {{"stage", "setup"}, {"message", error.message}};
+    if (Status saved = save(); !saved.ok()) spdlog::warn("{}", saved.error().message);
+  }
+
+  const Json& manifest() const { return manifest_; }
+
+ private:
+  template <class Body>
+  Status stage(StageIndex index, Body&& body) {
+    Json& record = manifest_["stages"][index];
+    progress_.startStage(kRunStages[index]);
+    resetPeakResident();
+    const Stopwatch stopwatch;
+    Status status = body();
+    record["seconds"] = stopwatch.seconds();
+    record["peak_memory_bytes"] = peakResidentSinceReset();
+    record["status"] = status.ok() ? "succeeded" : "failed";
+    if (!status.ok()) manifest_["error"] = {{"stage", kRunStages[index]}, {"message", status.error().message}};
+    progress_.finishStage(status.ok() ? fmt::format("{:.1f} s, peak {} MiB", record["seconds"].get<double>(),
+                                                    record["peak_memory_bytes"].get<std::uint64_t>() >> 20)
+                                      : "failed");
+    APO_RETURN_IF_ERROR(save());
+    return status;
+  }
+
+  void skip(StageIndex index) {
+    manifest_["stages"][index]["status"] = "skipped";
+    progress_.startStage(kRunStages[index]);
+    progress_.finishStage("skipped");
+  }
+
+  Status save() const { return manifest::write(settings_.outDir, manifest_); }
+
+  void addFile(const char* key, const std::string& name) { manifest_["files"][key] = name; }
+
+  Status ingest() {
+    APO_RETURN_IF_ERROR(checkReadableFile(settings_.input));
+    auto digest = sha256OfFile(settings_.input);
+    if (!digest) return digest.error();
+    std::error_code ignored;
+    manifest_["input"]["sha256"] = *digest;
+    manifest_["input"]["bytes"] = fs::file_size(settings_.input, ignored);
+    auto ingested = ingestScan(settings_.input, settings_.options.ingest);
+    if (!ingested) return ingested.error();
+    data_.scan = std::move(ingested->scan);
+    manifest_["results"]["ingest"] = Json::parse(ingestReportJson(ingested->report));
+    return okStatus();
+  }
+
+  // The current stage's fraction done, to the progress line.
+  ProgressCallback reportFraction() {
+    return [this](double fraction) { progress_.setFraction(fraction); };
+  }
+
+  Status reconstruct() {
+    auto reconstruction = reconstructScan(data_.scan, settings_.options.reconstruct, reportFraction());
+    if (!reconstruction) return aboutInput(settings_.input, reconstruction.error());
+    data_.dense = std::move(reconstruction->mesh);
+    APO_RETURN_IF_ERROR(writePly(settings_.outDir / "M.ply", data_.dense));
+    addFile("M", "M.ply");
+    manifest_["results"]["reconstruct"] = Json::parse(reconstructReportJson(reconstruction->report));
+    return okStatus();
+  }
+
+  Status simplify() {
+    auto simplified = simplifyMesh(data_.dense, settings_.options.simplify, reportFraction());
+    if (!simplified) return aboutInput(settings_.input, simplified.error());
+    data_.coarse = std::move(simplified->mesh);
+    APO_RETURN_IF_ERROR(writePly(settings_.outDir / "m.ply", data_.coarse));
+    addFile("m", "m.ply");
+    manifest_["results"]["simplify"] = Json::parse(simplifyReportJson(simplified->report));
+    return okStatus();
+  }
+
+  // M for the bake and the reference renders: the dense mesh, or with
+  // --detail-source points the scan's points (a mesh's vertices with their
+  // normals).
+  const Scan& detailForBake() {
+    if (settings_.options.detailSource != DetailSource::Points) return data_.dense;
+    if (data_.scan.isMesh()) {
+      if (!data_.scan.points.hasNormals()) data_.scan.points.normals = areaWeightedVertexNormals(data_.scan);
+      data_.scan.triangles.clear();
+    }
+    return data_.scan;
+  }
+
+  Status bake(const Scan& detail) {
+    auto baked = bakeApo(detail, data_.coarse, settings_.options.bake, reportFraction());
+    if (!baked) return aboutInput(settings_.input, baked.error());
+    data_.texture = std::move(baked->texture);
+    APO_RETURN_IF_ERROR(writeApoFile(settings_.outDir / "scan.apo", data_.texture));
+    APO_RETURN_IF_ERROR(writeApoPng(settings_.outDir / "texture.png", data_.texture));
+    addFile("apo", "scan.apo");
+    addFile("texture", "texture.png");
+    manifest_["results"]["bake"] = Json::parse(bakeReportJson(baked->report));
+    return okStatus();
+  }
+
+  Status render(const Scan& detail) {
+    progress_.setFraction(0.0);
+    auto views = renderViews(&detail, data_.coarse, data_.texture, settings_.options.render,
+                             [&](int done, int total) { progress_.setFraction(static_cast<double>(done) / total); });
+    if (!views) return aboutInput(settings_.input, views.error());
+    const RenderFigures figures = measureViews(*views);
+    APO_RETURN_IF_ERROR(writeRenderOutputs(settings_.outDir / kRenderFolder, *views, figures, settings_.options.render));
+    std::vector<Camera> cameras;
+    for (const ViewImages& view : *views) cameras.push_back(view.camera);
+    manifest_["results"]["render"] = Json::parse(renderReportJson(figures, settings_.options.render, cameras));
+    addFile("renders", kRenderFolder);
+    return okStatus();
+  }
+
+  Status report() {
+    addFile("report", "report.html");
+    // The report shows the run as it will be recorded: every stage done.
+    Json finished = manifest_;
+    finished["status"] = "succeeded";
+    finished["stages"][kReport]["status"] = "succeeded";
+    return writeFileAtomically(settings_.outDir / "report.html", qaReportHtml(nlohmann::json::parse(finished.dump())));
+  }
+
+  const RunSettings& settings_;
+  Progress& progress_;
+  Json manifest_;
+  PipelineData data_;
+};
+
+}  // namespace
+
+RunOutcome runPipeline(const RunSettings& settings, Progress& progress) {
+  // Bad options fail before anything is written.
+  if (Status valid = validateRunOptions(settings.options); !valid.ok()) return {std::move(valid), manifest::initial(settings)};
+  Run run(settings, progress);
+  Status status = run.execute();
+  if (!status.ok()) run.recordFailure(status.error());
+  return {std::move(status), run.manifest()};
+}
+
+}  // namespace apo

@@ -1,0 +1,421 @@
+#include "format/format.h"
+#include "format/texel_layout.h"
+#include "tests/format/apo_test_trees.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <limits>
+#include <random>
+
+namespace apo {
+namespace {
+
+using ::testing::HasSubstr;
+using test::ChildPath;
+
+// ---- A tiny tree, encoded by hand ---------------------------------------------
+//
+// The root has children 0, 3 and 7; child 3 is internal with children 1 and
+// 6. Each node has an axis normal, so its xyz8 bytes are literal:
+// +x = FF 80 80, -x = 00 80 80, +y = 80 FF 80, -y = 80 00 80, +z = 80 80 FF,
+// -z = 80 80 00.
+Octree tinyTree() {
+  return test::octreeFromPaths({{0}, {3, 1}, {3, 6}, {7}}, [](const ChildPath& path) -> Vec3f {
+    if (path.empty()) return Vec3f::UnitZ();
+    if (path == ChildPath{0}) return Vec3f::UnitX();
+    if (path == ChildPath{3}) return -Vec3f::UnitX();
+    if (path == ChildPath{7}) return Vec3f::UnitY();
+    if (path == ChildPath{3, 1}) return -Vec3f::UnitY();
+    return -Vec3f::UnitZ();  // {3, 6}
+  });
+}
+
+using Texels = std::vector<std::array<std::uint8_t, 4>>;
+
+Texels texelsOf(const ApoTexture& texture) {
+  Texels texels(texture.texels.size() / 4);
+  for (std::size_t i = 0; i < texels.size(); ++i)
+    for (int channel = 0; channel < 4; ++channel) texels[i][channel] = texture.texels[4 * i + channel];
+  return texels;
+}
+
+ApoTexture encodeOrDie(const Octree& octree, int completeDepth, NormalEncoding encoding, int coarseDepth = 3,
+                       int maxDepth = 12) {
+  Result<ApoTexture> texture = encodeApo(octree, completeDepth, encoding, static_cast<std::uint8_t>(coarseDepth),
+                                         static_cast<std::uint8_t>(maxDepth));
+  EXPECT_TRUE(texture.ok()) << texture.error().message;
+  return texture.ok() ? *texture : ApoTexture{};
+}
+
+TEST(EncodeApo, TinyTreeWithoutCompletionByHand) {
+  const ApoTexture texture = encodeOrDie(tinyTree(), 0, NormalEncoding::Xyz8);
+  // 1 grid texel, 4 leaves, 2 internal nodes: 9 texels; width 4 (4^2 >= 9),
+  // 3 rows.
+  EXPECT_EQ(texture.width, 4u);
+  EXPECT_EQ(texture.height, 3u);
+  EXPECT_EQ(texture.leafNodes, 4u);
+  EXPECT_EQ(texture.internalNodes, 2u);
+  EXPECT_EQ(texture.usedTexels(), 9u);
+  const Texels expected = {
+      {0x01, 0x00, 0x00, 0x00},  // 0: grid entry -> the root at texel 1
+      {0x02, 0x00, 0x00, 0x89},  // 1: root: brood at 1 + 2 = 3; children 0, 3, 7
+      {0x80, 0x80, 0xFF, 0x08},  // 2: root normal +z; kind: child 3 internal
+      {0xFF, 0x80, 0x80, 0x00},  // 3: child 0, leaf +x
+      {0x03, 0x00, 0x00, 0x42},  // 4: child 3: brood at 4 + 3 = 7; children 1, 6
+      {0x00, 0x80, 0x80, 0x00},  // 5: child 3 normal -x; kind: both leaves
+      {0x80, 0xFF, 0x80, 0x00},  // 6: child 7, leaf +y
+      {0x80, 0x00, 0x80, 0x00},  // 7: child 3.1, leaf -y
+      {0x80, 0x80, 0x00, 0x00},  // 8: child 3.6, leaf -z
+      {0, 0, 0, 0},              // 9-11: the rest of the last row
+      {0, 0, 0, 0},
+      {0, 0, 0, 0},
+  };
+  EXPECT_EQ(texelsOf(texture), expected);
+}
+
+TEST(EncodeApo, TinyTreeWithCompletionByHand) {
+  const ApoTexture texture = encodeOrDie(tinyTree(), 1, NormalEncoding::Xyz8);
+  // Grid cell (ix, iy, iz) of child c: a bit set means the lower half (0).
+  // Child 7 = (0, 0, 0) -> cell 0; child 3 = (1, 0, 0) -> cell 4; child 0 =
+  // (1, 1, 1) -> cell 7. 8 grid texels + 2 leaves + 1 internal + 2 leaves =
+  // 14 texels: width 4, 4 rows.
+  EXPECT_EQ(texture.width, 4u);
+  EXPECT_EQ(texture.height, 4u);
+  EXPECT_EQ(texture.gridTexels(), 8u);
+  EXPECT_EQ(texture.usedTexels(), 14u);
+  const std::array<std::uint8_t, 4> empty = {0xFF, 0xFF, 0xFF, 0xFF};
+  const Texels expected = {
+      {0x08, 0x00, 0x00, 0x00},  // 0: cell (0,0,0) -> child 7 at texel 8
+      empty, empty, empty,       // 1-3: cells without nodes
+      {0x09, 0x00, 0x00, 0x00},  // 4: cell (1,0,0) -> child 3 at texel 9
+      empty, empty,              // 5-6
+      {0x0B, 0x00, 0x00, 0x00},  // 7: cell (1,1,1) -> child 0 at texel 11
+      {0x80, 0xFF, 0x80, 0x00},  // 8: child 7, leaf +y
+      {0x03, 0x00, 0x00, 0x42},  // 9: child 3: brood at 9 + 3 = 12
+      {0x00, 0x80, 0x80, 0x00},  // 10: child 3 normal -x
+      {0xFF, 0x80, 0x80, 0x00},  // 11: child 0, leaf +x
+      {0x80, 0x00, 0x80, 0x00},  // 12: child 3.1, leaf -y
+      {0x80, 0x80, 0x00, 0x00},  // 13: child 3.6, leaf -z
+      {0, 0, 0, 0},              // 14-15: padding
+      {0, 0, 0, 0},
+  };
+  EXPECT_EQ(texelsOf(texture), expected);
+}
+
+void expectLookup(const Lookup& lookup, std::uint32_t texel, int depth, const Vec3f& axis) {
+  EXPECT_TRUE(lookup.found);
+  EXPECT_EQ(lookup.texel, texel);
+  EXPECT_EQ(lookup.depth, depth);
+  EXPECT_GT(lookup.normal.dot(axis), 0.9999f) << lookup.normal.transpose();
+}
+
+TEST(LookupTexture, TinyTreeByHand) {
+  const ApoTexture flat = encodeOrDie(tinyTree(), 0, NormalEncoding::Xyz8);
+  const ApoTexture grid = encodeOrDie(tinyTree(), 1, NormalEncoding::Xyz8);
+  // Child 3 (x upper, y and z lower) is centred at (0.75, 0.25, 0.25); its
+  // child 1 (z lower) at (0.875, 0.375, 0.125), its child 6 (x, y lower) at
+  // (0.625, 0.125, 0.375).
+  expectLookup(lookupTexture(flat, {0.875f, 0.375f, 0.125f}), 7, 2, -Vec3f::UnitY());
+  expectLookup(lookupTexture(grid, {0.875f, 0.375f, 0.125f}), 12, 2, -Vec3f::UnitY());
+  expectLookup(lookupTexture(flat, {0.625f, 0.125f, 0.375f}), 8, 2, -Vec3f::UnitZ());
+  // Child 3 has no child 0 (all upper): the walk stops at child 3.
+  expectLookup(lookupTexture(flat, {0.875f, 0.375f, 0.375f}), 4, 1, -Vec3f::UnitX());
+  // The root has no child 1: the root's normal; with the grid, an empty cell.
+  expectLookup(lookupTexture(flat, {0.75f, 0.75f, 0.25f}), 1, 0, Vec3f::UnitZ());
+  EXPECT_FALSE(lookupTexture(grid, {0.75f, 0.75f, 0.25f}).found);
+  // On the centre planes a point goes to the lower side: child 7; at the
+  // far corner, child 0.
+  expectLookup(lookupTexture(flat, {0.5f, 0.5f, 0.5f}), 6, 1, Vec3f::UnitY());
+  expectLookup(lookupTexture(grid, {0.5f, 0.5f, 0.5f}), 8, 1, Vec3f::UnitY());
+  expectLookup(lookupTexture(flat, {0.0f, 0.0f, 0.0f}), 6, 1, Vec3f::UnitY());
+  expectLookup(lookupTexture(grid, {1.0f, 1.0f, 1.0f}), 11, 1, Vec3f::UnitX());
+  // Outside the cube, or NaN.
+  EXPECT_FALSE(lookupTexture(flat, {1.0001f, 0.5f, 0.5f}).found);
+  EXPECT_FALSE(lookupTexture(flat, {0.5f, -1e-30f, 0.5f}).found);
+  EXPECT_FALSE(lookupTexture(flat, {0.5f, 0.5f, std::numeric_limits<float>::quiet_NaN()}).found);
+}
+
+TEST(LookupTexture, MaxDepthStopsTheWalk) {
+  const ApoTexture flat = encodeOrDie(tinyTree(), 0, NormalEncoding::Xyz8);
+  const ApoTexture grid = encodeOrDie(tinyTree(), 1, NormalEncoding::Xyz8);
+  const Vec3f p(0.875f, 0.375f, 0.125f);  // in child 3.1
+  expectLookup(lookupTexture(flat, p, 0), 1, 0, Vec3f::UnitZ());   // the root's normal (texel 2)
+  expectLookup(lookupTexture(flat, p, 1), 4, 1, -Vec3f::UnitX());  // child 3's normal (texel 5)
+  expectLookup(lookupTexture(flat, p, 2), 7, 2, -Vec3f::UnitY());
+  // Above the grid the walk cannot go: it stops at the grid's node.
+  expectLookup(lookupTexture(grid, p, 0), 9, 1, -Vec3f::UnitX());
+  // The octree walk stops at maxDepth too; Lookup::texel is then the node.
+  const Octree octree = tinyTree();
+  const Lookup root = lookupOctree(octree, p, 0);
+  EXPECT_EQ(root.depth, 0);
+  EXPECT_EQ(root.texel, 0u);
+  EXPECT_EQ(lookupOctree(octree, p, 1).normal, -Vec3f::UnitX());
+}
+
+// ---- Settings and limits --------------------------------------------------------
+
+TEST(EncodeApo, RejectsACompletionBelowTheCoarseDepth) {
+  const Result<ApoTexture> texture = encodeApo(tinyTree(), 2, NormalEncoding::Oct24, 1, 5);
+  ASSERT_FALSE(texture.ok());
+  EXPECT_EQ(texture.error().kind, ErrorKind::Usage);
+  EXPECT_THAT(texture.error().message, HasSubstr("--complete-depth 2 must not exceed the coarse depth 1"));
+}
+
+TEST(EncodeApo, RejectsALeafAboveTheGrid) {
+  // Child 0 at depth 1 is a leaf, so the tree is complete to depth 1 only.
+  const Result<ApoTexture> texture = encodeApo(tinyTree(), 2, NormalEncoding::Oct24, 2, 5);
+  ASSERT_FALSE(texture.ok());
+  EXPECT_EQ(texture.error().kind, ErrorKind::Usage);
+  EXPECT_THAT(texture.error().message, HasSubstr("at depth 1"));
+  EXPECT_THAT(texture.error().message, HasSubstr("is a leaf"));
+}
+
+TEST(EncodeApo, RejectsOutOfRangeDepths) {
+  const Result<ApoTexture> deepGrid = encodeApo(tinyTree(), 11, NormalEncoding::Oct24, 11, 12);
+  ASSERT_FALSE(deepGrid.ok());
+  EXPECT_EQ(deepGrid.error().kind, ErrorKind::Usage);
+  EXPECT_THAT(deepGrid.error().message, HasSubstr("between 0 and 10"));
+  const Result<ApoTexture> negative = encodeApo(tinyTree(), -1, NormalEncoding::Oct24, 1, 5);
+  ASSERT_FALSE(negative.ok());
+  const Result<ApoTexture> tooDeep = encodeApo(tinyTree(), 0, NormalEncoding::Oct24, 1, 21);
+  ASSERT_FALSE(tooDeep.ok());
+  EXPECT_THAT(tooDeep.error().message, HasSubstr("--max-depth 21"));
+  // The tree (depth 2) deeper than the bake's max depth is a bug upstream.
+  const Result<ApoTexture> deeperTree = encodeApo(tinyTree(), 0, NormalEncoding::Oct24, 1, 1);
+  ASSERT_FALSE(deeperTree.ok());
+  EXPECT_EQ(deeperTree.error().kind, ErrorKind::Internal);
+  EXPECT_THAT(deeperTree.error().message, HasSubstr("deeper than the max depth 1"));
+}
+
+TEST(TexelLayout, BroodOffsetsMustFit24Bits) {
+  // A tree with 2^24 texels between a node and its brood would take
+  // gigabytes here; the encoder's check is this function.
+  EXPECT_EQ(*texel::broodOffset(5, 5 + 0xFFFFFF), 0xFFFFFFu);
+  const Result<std::uint32_t> tooFar = texel::broodOffset(5, 5 + 0x1000000);
+  ASSERT_FALSE(tooFar.ok());
+  EXPECT_EQ(tooFar.error().kind, ErrorKind::Usage);
+  EXPECT_THAT(tooFar.error().message, HasSubstr("does not fit the 24 bits"));
+}
+
+TEST(TexelLayout, WidthIsThePowerOfTwoThatMakesItClosestToSquare) {
+  EXPECT_EQ(texel::textureWidthFor(1), 2u);  // K >= 1
+  EXPECT_EQ(texel::textureWidthFor(4), 2u);
+  EXPECT_EQ(texel::textureWidthFor(5), 4u);
+  EXPECT_EQ(texel::textureWidthFor(16), 4u);
+  EXPECT_EQ(texel::textureWidthFor(17), 8u);
+  EXPECT_EQ(texel::textureWidthFor(std::uint64_t{1} << 28), 16384u);
+  EXPECT_EQ(texel::textureWidthFor(std::uint64_t{1} << 31), 16384u);  // capped
+  EXPECT_EQ(texel::rowsFor(17, 8), 3u);
+}
+
+// ---- Random trees -------------------------------------------------------------
+
+TEST(DecodeApo, InvertsEncodeOnRandomTrees) {
+  for (std::uint64_t seed = 1; seed <= 12; ++seed) {
+    Octree octree = test::randomOctree(seed, 3, 8, 0.45);
+    octree.transform.scale = 2.5;
+    octree.transform.offset = {0.1, -0.2, 0.3};
+    for (int completeDepth = 0; completeDepth <= 3; ++completeDepth) {
+      for (NormalEncoding encoding : {NormalEncoding::Xyz8, NormalEncoding::Oct24}) {
+        const ApoTexture texture = encodeOrDie(octree, completeDepth, encoding);
+        const Result<Octree> decoded = decodeApo(texture);
+        ASSERT_TRUE(decoded.ok()) << decoded.error().message;
+        EXPECT_EQ(decoded->nodes.size(), octree.nodes.size());
+        EXPECT_EQ(decoded->transform.scale, 2.5);
+        EXPECT_EQ(decoded->transform.offset, octree.transform.offset);
+        EXPECT_EQ(test::firstDifference(test::expectedDecoding(octree, encoding, completeDepth), *decoded), "")
+            << "seed " << seed << ", complete depth " << completeDepth << ", " << normalEncodingName(encoding);
+      }
+    }
+  }
+}
+
+TEST(DecodeApo, InvertsEncodeOnADepthFirstTree) {
+  const Octree octree = tinyTree();
+  for (int completeDepth = 0; completeDepth <= 1; ++completeDepth) {
+    const Result<Octree> decoded = decodeApo(encodeOrDie(octree, completeDepth, NormalEncoding::Oct24));
+    ASSERT_TRUE(decoded.ok()) << decoded.error().message;
+    EXPECT_EQ(test::firstDifference(test::expectedDecoding(octree, NormalEncoding::Oct24, completeDepth), *decoded),
+              "");
+  }
+}
+
+TEST(EncodeApo, TextureShapeAndDeterminism) {
+  const Octree octree = test::randomOctree(5, 2, 7, 0.5);
+  const ApoTexture texture = encodeOrDie(octree, 2, NormalEncoding::Oct24);
+  const auto aboveGrid = std::count_if(octree.nodes.begin(), octree.nodes.end(),
+                                       [](const OctreeNode& node) { return node.depth < 2; });
+  EXPECT_EQ(texture.leafNodes + texture.internalNodes + static_cast<std::uint64_t>(aboveGrid), octree.nodes.size());
+  EXPECT_EQ(texture.width, texel::textureWidthFor(texture.usedTexels()));
+  EXPECT_EQ(texture.height, texel::rowsFor(texture.usedTexels(), texture.width));
+  EXPECT_EQ(texture.texels.size(), 4ull * texture.width * texture.height);
+  EXPECT_EQ(encodeOrDie(octree, 2, NormalEncoding::Oct24).texels, texture.texels);
+}
+
+// Points that stress the walk: uniform, on dyadic planes (cell boundaries
+// of every depth), at the cube's faces and corners, and outside it.
+std::vector<Vec3f> lookupPoints(std::size_t count, std::uint64_t seed) {
+  std::mt19937_64 random(seed);
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f), wide(-0.2f, 1.2f);
+  std::uniform_int_distribution<int> kindDist(0, 3), depthDist(0, 9);
+  auto dyadic = [&] {
+    const int depth = depthDist(random);
+    return static_cast<float>(std::uniform_int_distribution<int>(0, 1 << depth)(random)) /
+           static_cast<float>(1 << depth);
+  };
+  std::vector<Vec3f> points = {{0, 0, 0}, {1, 1, 1}, {0, 1, 0.5f}, {0.5f, 0.5f, 0.5f}, {-0.0f, 1, 1}};
+  while (points.size() < count) {
+    Vec3f p;
+    for (int axis = 0; axis < 3; ++axis) {
+      switch (kindDist(random)) {
+        case 0: p[axis] = unit(random); break;
+        case 1:
+        case 2: p[axis] = dyadic(); break;
+        default: p[axis] = wide(random); break;
+      }
+    }
+    points.push_back(p);
+  }
+  return points;
+}
+
+bool insideCube(const Vec3f& p) { return (p.array() >= 0.0f).all() && (p.array() <= 1.0f).all(); }
+
+TEST(LookupTexture, AgreesWithTheOctreeAndDoesNotDependOnCompletion) {
+  const Octree octree = test::randomOctree(42, 3, 8, 0.45);
+  const NormalEncoding encoding = NormalEncoding::Oct24;
+  const ApoTexture flat = encodeOrDie(octree, 0, encoding);
+  const ApoTexture grid2 = encodeOrDie(octree, 2, encoding);
+  const ApoTexture grid3 = encodeOrDie(octree, 3, encoding);
+  std::size_t inside = 0, emptyCells = 0;
+  for (const Vec3f& p : lookupPoints(100000, 9)) {
+    const Lookup expected = lookupOctree(octree, p);
+    const Lookup actual = lookupTexture(flat, p);
+    ASSERT_EQ(actual.found, insideCube(p)) << p.transpose();
+    ASSERT_EQ(expected.found, actual.found) << p.transpose();
+    if (!actual.found) continue;
+    ++inside;
+    ASSERT_EQ(actual.depth, expected.depth) << p.transpose();
+    ASSERT_EQ(actual.normal, decodeNormal(encodeNormal(expected.normal, encoding), encoding)) << p.transpose();
+    for (const ApoTexture* completed : {&grid2, &grid3}) {
+      const Lookup lookup = lookupTexture(*completed, p);
+      if (!lookup.found) {
+        // An empty grid cell: the octree walk ended above the grid.
+        ASSERT_LT(expected.depth, completed->completeDepth) << p.transpose();
+        ++emptyCells;
+        continue;
+      }
+      ASSERT_EQ(lookup.depth, actual.depth) << p.transpose();
+      ASSERT_EQ(lookup.normal, actual.normal) << p.transpose();
+    }
+  }
+  // The sample reached both cases.
+  EXPECT_GT(inside, 50000u);
+  EXPECT_GT(emptyCells, 100u);
+}
+
+TEST(LookupTexture, MaxDepthAgreesWithTheOctreeOnRandomTrees) {
+  const Octree octree = test::randomOctree(43, 2, 8, 0.5);
+  const ApoTexture flat = encodeOrDie(octree, 0, NormalEncoding::Oct24);
+  const ApoTexture grid = encodeOrDie(octree, 2, NormalEncoding::Oct24);
+  for (const Vec3f& p : lookupPoints(20000, 10)) {
+    for (int maxDepth = 0; maxDepth <= 8; ++maxDepth) {
+      const Lookup expected = lookupOctree(octree, p, maxDepth);
+      const Lookup actual = lookupTexture(flat, p, maxDepth);
+      ASSERT_EQ(actual.found, expected.found);
+      if (!actual.found) continue;
+      ASSERT_LE(actual.depth, maxDepth);
+      ASSERT_EQ(actual.depth, expected.depth);
+      ASSERT_EQ(actual.normal, decodeNormal(encodeNormal(expected.normal, NormalEncoding::Oct24),
+                                            NormalEncoding::Oct24));
+      // With a grid of depth 2, the walk starts at depth 2: above it, it
+      // stops at the grid's node; from there on, it is the same walk.
+      const Lookup completed = lookupTexture(grid, p, maxDepth);
+      if (!completed.found) continue;  // an empty grid cell
+      if (maxDepth < 2) {
+        ASSERT_EQ(completed.depth, 2);
+      } else {
+        ASSERT_EQ(completed.depth, actual.depth);
+        ASSERT_EQ(completed.normal, actual.normal);
+      }
+    }
+  }
+}
+
+// ---- Validation by the decoder ----------------------------------------------------
+
+ApoTexture tinyFlat() { return encodeOrDie(tinyTree(), 0, NormalEncoding::Xyz8); }
+
+void expectRejected(const ApoTexture& texture, const std::string& what) {
+  const Result<Octree> decoded = decodeApo(texture);
+  ASSERT_FALSE(decoded.ok()) << "accepted; expected: " << what;
+  EXPECT_EQ(decoded.error().kind, ErrorKind::BadInput);
+  EXPECT_THAT(decoded.error().message, HasSubstr(what));
+}
+
+TEST(DecodeApo, RejectsAGridEntryOffTheLayout) {
+  ApoTexture texture = tinyFlat();
+  texture.texels[0] = 2;
+  expectRejected(texture, "grid entry of cell (0, 0, 0) points to texel 2, expected 1");
+}
+
+TEST(DecodeApo, RejectsAnOffsetOffTheLayout) {
+  ApoTexture texture = tinyFlat();
+  texture.texels[4 * 4] = 0x04;  // child 3's offset: 3 -> 4
+  expectRejected(texture, "texel 4: the offset 4 to the children points to texel 8, expected 7");
+  texture.texels[4 * 4 + 2] = 0x80;  // far beyond the texture
+  expectRejected(texture, "texel 4: the offset");
+}
+
+TEST(DecodeApo, RejectsAKindMaskThatDisagreesWithTheChild) {
+  ApoTexture texture = tinyFlat();
+  texture.texels[4 * 2 + 3] = 0x09;  // root says child 0 is internal too
+  expectRejected(texture, "texel 3: its parent's kind mask says internal node");
+  texture.texels[4 * 2 + 3] = 0x18;  // a kind bit for the absent child 4
+  expectRejected(texture, "kind mask 0x18 marks children absent from the child mask 0x89");
+}
+
+TEST(DecodeApo, RejectsNonZeroPaddingAndWrongCounts) {
+  ApoTexture padded = tinyFlat();
+  padded.texels[4 * 10 + 1] = 1;
+  expectRejected(padded, "texel 10: the unused texels");
+  ApoTexture counts = tinyFlat();
+  counts.leafNodes -= 2;
+  counts.internalNodes += 1;  // same used texels, other split
+  expectRejected(counts, "with 4 leaves and 2 internal nodes");
+  ApoTexture shortTexels = tinyFlat();
+  shortTexels.texels.pop_back();
+  expectRejected(shortTexels, "bytes of texels for a 4 x 3 texture");
+  ApoTexture tooMany = tinyFlat();
+  tooMany.leafNodes = std::numeric_limits<std::uint64_t>::max();
+  expectRejected(tooMany, "do not fit");
+  ApoTexture noNode = tinyFlat();
+  noNode.texels.assign(noNode.texels.size(), 0);
+  noNode.texels[0] = noNode.texels[1] = noNode.texels[2] = noNode.texels[3] = 0xFF;
+  noNode.leafNodes = noNode.internalNodes = 0;
+  expectRejected(noNode, "every grid cell is empty");
+}
+
+TEST(DecodeApo, CorruptTexturesNeverCrashIt) {
+  // Byte flips anywhere: decodeApo either rejects the texture or returns a
+  // tree, and then lookups stay inside the texture (they check it).
+  std::mt19937_64 random(3);
+  const std::vector<Vec3f> points = lookupPoints(200, 4);
+  for (int completeDepth = 0; completeDepth <= 1; ++completeDepth) {
+    const ApoTexture valid = encodeOrDie(test::randomOctree(11, 1, 5, 0.5), completeDepth, NormalEncoding::Oct24);
+    std::uniform_int_distribution<std::size_t> byteDist(0, valid.texels.size() - 1);
+    std::uniform_int_distribution<int> valueDist(0, 255);
+    for (int trial = 0; trial < 2000; ++trial) {
+      ApoTexture texture = valid;
+      for (int flips = 1 + trial % 3; flips > 0; --flips)
+        texture.texels[byteDist(random)] = static_cast<std::uint8_t>(valueDist(random));
+      if (!decodeApo(texture).ok()) continue;
+      for (const Vec3f& p : points) (void)lookupTexture(texture, p);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace apo

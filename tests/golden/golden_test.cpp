@@ -1,0 +1,196 @@
+// Golden files (tests/golden/, docs/testing.md): a small committed input, the
+// outputs the stages made of it when the files were last regenerated on
+// purpose, and a byte-for-byte comparison that names the first differing
+// byte and the field it belongs to. Regenerate with
+//   APO_UPDATE_GOLDEN=1 build/golden_tests
+// and review `git diff tests/golden` before committing.
+//
+// v1/ holds the .apo of format version 1: whatever later versions write, the
+// v1 file must stay readable with the same normals (ReadsTheV1Apo).
+#include "core/file_io.h"
+#include "format/format.h"
+#include "ingest/ingest.h"
+#include "pipeline/bake_seams.h"
+#include "reconstruct/reconstruct.h"
+#include "tests/bake/bumpy_sphere.h"
+#include "tests/test_support.h"
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cstdlib>
+#include <optional>
+#include <sstream>
+
+namespace apo {
+namespace {
+namespace fs = std::filesystem;
+
+const fs::path kGolden = fs::path(APO_SOURCE_DIR) / "tests" / "golden";
+const fs::path kCurrent = kGolden / "v1";  // the format version the tools write now
+
+bool updating() {
+  const char* update = std::getenv("APO_UPDATE_GOLDEN");
+  return update != nullptr && std::string(update) == "1";
+}
+
+// The stages' settings for the golden outputs: small, so the files are.
+SimplifyOptions goldenSimplify() {
+  SimplifyOptions options;
+  options.targetFaces = 200;
+  return options;
+}
+BakeOptions goldenBake() {
+  BakeOptions options;
+  options.coarseDepth = 3;
+  options.maxDepth = 7;
+  return options;
+}
+
+// Where in a PLY our writer makes (ingest.h writePly: binary little endian,
+// fixed-size vertex properties, faces as a uchar count and int indices) a
+// byte lies: a header line, a vertex's property, or a face.
+std::string plyField(const std::string& bytes, std::size_t offset) {
+  const std::size_t headerEnd = bytes.find("end_header\n");
+  if (headerEnd == std::string::npos) return "no PLY header";
+  const std::size_t bodyStart = headerEnd + std::string("end_header\n").size();
+  std::istringstream header(bytes.substr(0, bodyStart));
+  std::string line;
+  std::size_t lineNumber = 0, lineStart = 0, vertices = 0, vertexBytes = 0;
+  std::vector<std::pair<std::string, std::size_t>> properties;  // name, first byte within the vertex
+  bool inVertex = false;
+  while (std::getline(header, line)) {
+    ++lineNumber;
+    if (offset >= lineStart && offset <= lineStart + line.size()) return fmt::format("header line {}: '{}'", lineNumber, line);
+    lineStart += line.size() + 1;
+    std::istringstream words(line);
+    std::string word, type, name;
+    words >> word;
+    if (word == "element") {
+      words >> name;
+      inVertex = name == "vertex";
+      if (inVertex) words >> vertices;
+    } else if (word == "property" && inVertex) {
+      words >> type >> name;
+      properties.emplace_back(name, vertexBytes);
+      vertexBytes += type == "uchar" ? 1 : type == "double" ? 8 : 4;
+    }
+  }
+  const std::size_t body = offset - bodyStart;
+  if (body < vertices * vertexBytes) {
+    const std::size_t within = body % vertexBytes;
+    std::string property = "?";
+    for (const auto& [name, start] : properties)
+      if (within >= start) property = name;
+    return fmt::format("vertex {}, property {}", body / vertexBytes, property);
+  }
+  return fmt::format("face {} (13 bytes each: count and three indices)", (body - vertices * vertexBytes) / 13);
+}
+
+// The line holding a byte of a text file (its key, for JSON).
+std::string textLine(const std::string& bytes, std::size_t offset) {
+  const std::size_t start = bytes.rfind('\n', offset == 0 ? 0 : offset - 1);
+  const std::size_t from = start == std::string::npos || offset == 0 ? 0 : start + 1;
+  const std::size_t end = bytes.find('\n', offset);
+  const std::size_t line = static_cast<std::size_t>(std::count(bytes.begin(), bytes.begin() + static_cast<std::ptrdiff_t>(from), '\n')) + 1;
+  return fmt::format("line {}: '{}'", line, bytes.substr(from, end == std::string::npos ? std::string::npos : end - from));
+}
+
+using FieldOf = std::string (*)(const std::string&, std::size_t);
+
+// Compares fresh output bytes with the golden file (or rewrites it when
+// updating), failing with the first differing byte and its field.
+void expectGolden(const std::string& fresh, const fs::path& golden, FieldOf fieldOf) {
+  if (updating()) {
+    ASSERT_TRUE(writeFileAtomically(golden, fresh).ok()) << golden;
+    return;
+  }
+  auto expected = readFileBytes(golden);
+  ASSERT_TRUE(expected.ok()) << expected.error().message << " (APO_UPDATE_GOLDEN=1 writes it)";
+  if (fresh == *expected) return;
+  const auto mismatch = std::mismatch(fresh.begin(), fresh.end(), expected->begin(), expected->end());
+  const std::size_t at = static_cast<std::size_t>(mismatch.first - fresh.begin());
+  const std::string& longer = fresh.size() >= expected->size() ? fresh : *expected;
+  ADD_FAILURE() << golden.filename() << " differs from the golden file (" << fresh.size() << " bytes made, "
+                << expected->size() << " expected) first at byte " << at << ", in "
+                << fieldOf(longer, std::min(at, longer.size() - 1))
+                << ". If the change is meant, regenerate: APO_UPDATE_GOLDEN=1 build/golden_tests";
+}
+
+std::string apoField(const std::string& bytes, std::size_t offset) { return describeApoFileByte(bytes, offset); }
+
+std::string plyBytes(const Scan& mesh) {
+  const fs::path path = test::freshTempDir() / "mesh.ply";
+  EXPECT_TRUE(writePly(path, mesh).ok());
+  return readFileBytes(path).value();
+}
+
+std::string apoBytes(const ApoTexture& texture) {
+  const fs::path path = test::freshTempDir() / "scan.apo";
+  EXPECT_TRUE(writeApoFile(path, texture).ok());
+  return readFileBytes(path).value();
+}
+
+// bake.json without what changes from run to run: seconds and peak memory.
+std::string bakeJsonWithoutTimings(const BakeReport& report) {
+  nlohmann::ordered_json json = nlohmann::ordered_json::parse(bakeReportJson(report));
+  json.erase("seconds");
+  json.erase("peak_memory_bytes");
+  return json.dump(2) + "\n";
+}
+
+class Golden : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    // The input is the bumpy sphere of tests/bake/bumpy_sphere.h, written once.
+    if (updating() && !fs::exists(kGolden / "input.ply")) {
+      ASSERT_TRUE(writePly(kGolden / "input.ply", test::BumpySphere().mesh(3)).ok());
+    }
+    auto input = readScan(kGolden / "input.ply");
+    ASSERT_TRUE(input.ok()) << input.error().message;
+    input_ = new Scan(std::move(input).value());
+  }
+  static void TearDownTestSuite() { delete input_; }
+  static Scan* input_;
+};
+Scan* Golden::input_ = nullptr;
+
+TEST_F(Golden, SimplifyGivesTheGoldenM) {
+  auto m = simplifyMesh(*input_, goldenSimplify());
+  ASSERT_TRUE(m.ok()) << m.error().message;
+  expectGolden(plyBytes(m->mesh), kCurrent / "m.ply", plyField);
+}
+
+TEST_F(Golden, BakeGivesTheGoldenApoAndReport) {
+  auto m = readScan(kCurrent / "m.ply");
+  ASSERT_TRUE(m.ok()) << m.error().message;
+  auto bake = bakeApo(*input_, *m, goldenBake());
+  ASSERT_TRUE(bake.ok()) << bake.error().message;
+  expectGolden(apoBytes(bake->texture), kCurrent / "scan.apo", apoField);
+  expectGolden(bakeJsonWithoutTimings(bake->report), kCurrent / "bake.json", textLine);
+}
+
+// Normals of the v1 golden at fixed world points, as decoded when it was
+// written: any later reader must find the same.
+std::string lookupsOf(const ApoTexture& texture, const Scan& points) {
+  std::string text;
+  for (const Vec3f& p : points.points.positions) {
+    const Vec3f unit = texture.transform.toUnit(p);
+    const Lookup plain = lookupTexture(texture, unit), filtered = lookupTextureFiltered(texture, unit);
+    text += fmt::format("{} {:.9g} {:.9g} {:.9g} {:.9g} {:.9g} {:.9g}\n", plain.found ? 1 : 0, plain.normal.x(),
+                        plain.normal.y(), plain.normal.z(), filtered.normal.x(), filtered.normal.y(), filtered.normal.z());
+  }
+  return text;
+}
+
+TEST_F(Golden, ReadsTheV1Apo) {
+  auto texture = readApoFile(kGolden / "v1" / "scan.apo");
+  ASSERT_TRUE(texture.ok()) << texture.error().message;
+  // The input's vertices lie on M, where the APO has its normals.
+  expectGolden(lookupsOf(*texture, *input_), kGolden / "v1" / "lookups.txt", textLine);
+}
+
+}  // namespace
+}  // namespace apo

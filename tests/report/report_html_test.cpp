@@ -1,0 +1,284 @@
+// report.html and index.html from manifests: escaping of everything that
+// comes from a file, percent-encoded image paths, every view's images, a
+// failed run's "not run" sections, the charts' bars, the batch index rows,
+// and no exception on manifests of unexpected shape.
+#include "report/report.h"
+#include "render/render.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <fmt/format.h>
+
+#include <string>
+
+namespace apo {
+namespace {
+
+// The legend the pages draw is the scale the heat maps were coloured with.
+static_assert(kReportHeatMapDegrees == kHeatMapDegrees);
+
+using Json = nlohmann::json;
+using ::testing::HasSubstr;
+using ::testing::Not;
+
+std::size_t occurrences(const std::string& text, const std::string& what) {
+  std::size_t n = 0;
+  for (std::size_t at = text.find(what); at != std::string::npos; at = text.find(what, at + what.size())) ++n;
+  return n;
+}
+
+Json stage(const char* name, const char* status, double seconds = 1.0) {
+  return {{"name", name}, {"status", status}, {"seconds", seconds}, {"peak_memory_bytes", 100'000'000}};
+}
+
+Json passFigures(double meanDegrees, double mae) {
+  return {{"angular_error_degrees", {{"pixels", 1000}, {"mean", meanDegrees}, {"median", meanDegrees * 0.8},
+                                     {"p95", meanDegrees * 3}, {"max", 40.0}}},
+          {"image", {{"pixels", 1100}, {"mean_absolute_error", mae}, {"psnr_db", 31.5}, {"ssim", 0.93},
+                     {"silhouette_mismatch", 0.01}}}};
+}
+
+// A run that went through every stage, with `views` rendered views.
+Json succeededManifest(const std::string& name, int views) {
+  Json m;
+  m["format_version"] = 1;
+  m["tool"] = {{"name", "apo"}, {"version", "0.6.0"}};
+  m["input"] = {{"path", "scans/" + name}, {"name", name}, {"sha256", std::string(64, 'a')}, {"bytes", 123456}};
+  m["options"] = {{"detail-source", "mesh"}, {"simplify", {{"faces", "3000"}}}};
+  m["status"] = "succeeded";
+  m["error"] = nullptr;
+  m["stages"] = {stage("ingest", "succeeded"), stage("reconstruct", "succeeded"), stage("simplify", "succeeded"),
+                 stage("bake", "succeeded"),   stage("render", "succeeded"),      stage("report", "succeeded")};
+  m["results"]["ingest"] = {{"kind", "point_cloud"}, {"counts", {{"points_in", 460400}, {"points_out", 452119}}}};
+  m["results"]["reconstruct"] = {{"method", "advancing_front"}, {"mesh", {{"vertices", 600000}, {"triangles", 1204332}}}};
+  m["results"]["simplify"] = {{"policy", "gh"}, {"faces", {{"in", 1204332}, {"target", 3000}, {"out", 3000}}}};
+  m["results"]["bake"] = {{"nodes", {{"per_depth", {1, 8, 64, 300, 1200, 4000, 9000}}, {"leaves", 11000}, {"internal", 3573}}},
+                          {"sampling", {{"rays", 1000000}, {"samples_hit", 990000}, {"samples_fallback", 10000}}},
+                          {"texture", {{"width", 2048}, {"height", 128}, {"bytes", 1048576}}},
+                          {"seconds", {{"total", 4.2}}},
+                          {"peak_memory_bytes", 600000000}};
+  Json render;
+  render["options"] = {{"size", 512}, {"views", views}, {"mipmapping", true}, {"filtering", false}};
+  render["overall"] = {{"apo", {{"pixels", 1000 * views}, {"mean", 2.4}, {"median", 1.9}, {"p95", 7.0}, {"max", 40.0}}},
+                       {"baseline", {{"pixels", 1000 * views}, {"mean", 4.8}, {"median", 4.0}, {"p95", 12.0}, {"max", 60.0}}},
+                       {"baseline_over_apo", 2.0},
+                       {"cost", {{"reference_frame_ms", 12.0}, {"baseline_frame_ms", 1.5}, {"apo_frame_ms", 3.25},
+                                 {"apo_texel_fetches", {{"fragments", 90000}, {"mean", 6.5}, {"max", 11}}}}}};
+  render["views"] = Json::array();
+  for (int i = 0; i < views; ++i)
+    render["views"].push_back({{"index", i}, {"eye", {0, 0, 2}}, {"apo", passFigures(2.0 + i, 3.0)},
+                               {"baseline", passFigures(5.0 + i, 6.0)}, {"cost", Json::object()}});
+  m["results"]["render"] = render;
+  m["files"] = {{"m", "m.ply"}, {"apo", "scan.apo"}, {"renders", "render"}, {"report", "report.html"}};
+  return m;
+}
+
+// A run whose reconstruction failed: only ingest has results.
+Json failedAfterIngest(const std::string& name, const std::string& message) {
+  Json m = succeededManifest(name, 0);
+  m["status"] = "failed";
+  m["error"] = {{"stage", "reconstruct"}, {"message", message}};
+  m["stages"] = {stage("ingest", "succeeded"), stage("reconstruct", "failed"), stage("simplify", "not_run", 0),
+                 stage("bake", "not_run", 0),  stage("render", "not_run", 0),  stage("report", "not_run", 0)};
+  const Json ingest = m["results"]["ingest"];
+  m["results"] = {{"ingest", ingest}};
+  m["files"] = Json::object();
+  return m;
+}
+
+TEST(ReportHtml, EscapesTheFiveCharacters) {
+  EXPECT_EQ(htmlEscape("<a href=\"x\">'&'</a>"), "&lt;a href=&quot;x&quot;&gt;&#39;&amp;&#39;&lt;/a&gt;");
+  EXPECT_EQ(htmlEscape("plain caf\xc3\xa9"), "plain caf\xc3\xa9");
+}
+
+TEST(ReportHtml, PercentEncodesPaths) {
+  EXPECT_EQ(urlPathEscape("a #1/render/view00_apo.png"), "a%20%231/render/view00_apo.png");
+  EXPECT_EQ(urlPathEscape("q?x=%\"'"), "q%3Fx%3D%25%22%27");
+  EXPECT_EQ(urlPathEscape("Az09-._~/"), "Az09-._~/");
+  EXPECT_EQ(urlPathEscape("caf\xc3\xa9"), "caf%C3%A9");
+  EXPECT_EQ(urlPathEscape("javascript:alert(1)"), "javascript%3Aalert%281%29");  // stays a relative path
+  EXPECT_EQ(urlPathEscape("//evil.example/x.png"), ".///evil.example/x.png");  // a path under the page's folder
+}
+
+TEST(ReportHtml, HostileScanNameAndErrorMessageShowAsText) {
+  const std::string name = "<img src=x onerror=alert(1)>.ply";
+  const std::string html = qaReportHtml(failedAfterIngest(name, "bad header <script>alert('x')</script> & \"more\""));
+  EXPECT_THAT(html, Not(HasSubstr("<img src=x")));
+  EXPECT_THAT(html, Not(HasSubstr("<script")));
+  EXPECT_THAT(html, HasSubstr("<h1>&lt;img src=x onerror=alert(1)&gt;.ply</h1>"));
+  EXPECT_THAT(html, HasSubstr("<title>apo QA report: &lt;img src=x onerror=alert(1)&gt;.ply</title>"));
+  EXPECT_THAT(html, HasSubstr("bad header &lt;script&gt;alert(&#39;x&#39;)&lt;/script&gt; &amp; &quot;more&quot;"));
+  EXPECT_THAT(html, HasSubstr("scans/&lt;img src=x onerror=alert(1)&gt;.ply"));  // the input path
+}
+
+TEST(ReportHtml, HasNoScriptAndNothingFromTheNetwork) {
+  const std::string html = qaReportHtml(succeededManifest("bunny.ply", 2));
+  EXPECT_THAT(html, Not(HasSubstr("<script")));
+  EXPECT_THAT(html, Not(HasSubstr("http:")));
+  EXPECT_THAT(html, Not(HasSubstr("https:")));
+  EXPECT_THAT(html, Not(HasSubstr("=\"//")));
+  EXPECT_THAT(html, Not(HasSubstr("<link")));
+  EXPECT_THAT(html, HasSubstr("<style>"));
+  EXPECT_THAT(html, HasSubstr("</html>"));
+}
+
+TEST(ReportHtml, ReferencesEveryViewsFourImages) {
+  const std::string html = qaReportHtml(succeededManifest("bunny.ply", 3));
+  for (int view = 0; view < 3; ++view)
+    for (const char* pass : {"reference", "baseline", "apo", "apo_error"})
+      EXPECT_THAT(html, HasSubstr(fmt::format("src=\"render/view{:02d}_{}.png\"", view, pass))) << view << " " << pass;
+  EXPECT_EQ(occurrences(html, "<img "), 12u);
+  EXPECT_THAT(html, HasSubstr("0&#176;"));         // the heat map legend's scale
+  EXPECT_THAT(html, HasSubstr("10&#176;+"));
+}
+
+TEST(ReportHtml, PercentEncodesTheRendersFolderInSrc) {
+  Json manifest = succeededManifest("bunny.ply", 1);
+  manifest["files"]["renders"] = "a #1 & 'x' ?%";
+  const std::string html = qaReportHtml(manifest);
+  EXPECT_THAT(html, HasSubstr("src=\"a%20%231%20%26%20%27x%27%20%3F%25/view00_apo.png\""));
+  EXPECT_THAT(html, Not(HasSubstr("src=\"a #1")));
+}
+
+TEST(ReportHtml, StatesTheVerdictInPlainWords) {
+  const std::string html = qaReportHtml(succeededManifest("bunny.ply", 2));
+  EXPECT_THAT(html, HasSubstr("APO normals are <b>2.4&deg;</b> from the dense mesh M on average, <b>2.0&times; closer</b>"));
+  EXPECT_THAT(html, HasSubstr("<b>1.0 MiB</b>"));  // the texture
+  EXPECT_THAT(html, HasSubstr("0.33&times; the 3 MiB of a 1024 &times; 1024 RGB normal map"));
+  EXPECT_THAT(html, HasSubstr("class=\"banner ok\">succeeded"));
+}
+
+TEST(ReportHtml, ShowsTheFiguresOfEverySection) {
+  const std::string html = qaReportHtml(succeededManifest("bunny.ply", 2));
+  EXPECT_THAT(html, HasSubstr("460,400"));    // points read
+  EXPECT_THAT(html, HasSubstr("1,204,332"));  // M triangles
+  EXPECT_THAT(html, HasSubstr("1,000,000"));  // rays
+  EXPECT_THAT(html, HasSubstr("990,000"));    // samples hit
+  EXPECT_THAT(html, HasSubstr("10,000 (1.00%)"));  // by closest point
+  EXPECT_THAT(html, HasSubstr("3.25 ms"));    // APO frame
+  EXPECT_THAT(html, HasSubstr("6.50 / 11"));  // texel reads
+  EXPECT_THAT(html, HasSubstr("95.4 MiB"));   // a stage's peak memory
+  EXPECT_THAT(html, HasSubstr("6.00 s"));     // total of six 1 s stages
+  EXPECT_THAT(html, Not(HasSubstr("not run")));
+}
+
+TEST(ReportHtml, FailedRunShowsTheErrorAndNotRunSections) {
+  const std::string html = qaReportHtml(failedAfterIngest("scan.pcd", "no point left after cleaning"));
+  EXPECT_THAT(html, HasSubstr("class=\"banner bad\">failed at stage <b>reconstruct</b>: no point left after cleaning"));
+  EXPECT_THAT(html, HasSubstr("460,400"));  // ingest's figures are still shown
+  // Views, both charts, metrics, m, bake and render cost have nothing to show;
+  // the simplify, bake, render and report stages are listed as not run.
+  EXPECT_GE(occurrences(html, "not run"), 10u);
+  EXPECT_THAT(html, HasSubstr("not run (the bake stage did not run)"));
+  EXPECT_THAT(html, HasSubstr("failed: the reconstruct stage stopped the run: no point left after cleaning"));
+  EXPECT_EQ(occurrences(html, "<img"), 0u);
+  EXPECT_EQ(occurrences(html, "class=\"bar"), 0u);
+}
+
+TEST(ReportHtml, NodesPerDepthChartHasOneBarPerDepth) {
+  const std::string html = qaReportHtml(succeededManifest("bunny.ply", 2));
+  EXPECT_EQ(occurrences(html, "class=\"bar depth\""), 7u);
+  EXPECT_THAT(html, HasSubstr("<title>depth 6: 9,000 nodes</title>"));
+}
+
+TEST(ReportHtml, ViewErrorChartHasTwoBarsPerView) {
+  const std::string html = qaReportHtml(succeededManifest("bunny.ply", 4));
+  EXPECT_EQ(occurrences(html, "class=\"bar apo\""), 4u);
+  EXPECT_EQ(occurrences(html, "class=\"bar baseline\""), 4u);
+}
+
+TEST(ReportHtml, IdenticalImagesHaveAnInfinitePsnr) {
+  Json manifest = succeededManifest("bunny.ply", 1);
+  manifest["results"]["render"]["views"][0]["apo"]["image"]["psnr_db"] = nullptr;
+  EXPECT_THAT(qaReportHtml(manifest), HasSubstr("&infin; (identical)"));
+}
+
+TEST(ReportHtml, WithoutAReferenceNoReferenceImageIsLinked) {
+  Json manifest = succeededManifest("bunny.ply", 2);
+  manifest["results"]["render"]["overall"]["apo"]["pixels"] = 0;
+  const std::string html = qaReportHtml(manifest);
+  EXPECT_THAT(html, Not(HasSubstr("_reference.png")));
+  EXPECT_THAT(html, Not(HasSubstr("_apo_error.png")));
+  EXPECT_EQ(occurrences(html, "<img "), 4u);
+}
+
+TEST(ReportHtml, ManifestsOfUnexpectedShapeDoNotThrow) {
+  Json mistyped = succeededManifest("bunny.ply", 2);
+  mistyped["input"]["name"] = 42;
+  mistyped["stages"][1] = "bake";
+  mistyped["stages"][2]["seconds"] = "fast";
+  mistyped["results"]["bake"]["nodes"]["per_depth"] = {1, "x", nullptr, Json::object(), -5, 1e300};
+  mistyped["results"]["render"]["views"][0] = 7;
+  mistyped["results"]["render"]["views"][1]["index"] = -3;
+  mistyped["results"]["render"]["overall"] = "none";
+  mistyped["options"]["render"] = {{"size", {1, 2}}, {"bad\xff", "\xfe"}};  // invalid UTF-8 too
+  mistyped["files"] = {{"renders", 5}, {"m", nullptr}};
+  const std::vector<Json> manifests = {nullptr, Json::array(), "text", 42, Json::object(), {{"input", 5}},
+                                       {{"stages", Json::object()}, {"results", Json::array()}},
+                                       {{"status", "failed"}, {"error", "oops"}}, mistyped};
+  for (const Json& manifest : manifests) {
+    std::string html;
+    EXPECT_NO_THROW(html = qaReportHtml(manifest)) << manifest.dump(-1, ' ', false, Json::error_handler_t::replace);
+    EXPECT_THAT(html, HasSubstr("</html>"));
+    EXPECT_NO_THROW(html = batchIndexHtml({{"x", manifest}}, manifest));
+    EXPECT_THAT(html, HasSubstr("</html>"));
+  }
+  EXPECT_THAT(qaReportHtml(Json::object()), HasSubstr("unnamed scan"));
+}
+
+TEST(BatchIndexHtml, RowsForASuccessAndAFailure) {
+  const Json summary = {{"scans", 2}, {"succeeded", 1}, {"failed", 1}, {"skipped_up_to_date", 0}, {"seconds", 12.5}};
+  const std::vector<BatchRow> rows = {
+      {"lab #1/bunny.ply", succeededManifest("bunny.ply", 2)},
+      {"bad/<b>x</b>.pcd", failedAfterIngest("<b>x</b>.pcd", "line 3: expected 3 fields, found <2>")}};
+  const std::string html = batchIndexHtml(rows, summary);
+  EXPECT_THAT(html, HasSubstr("2 scans: 1 succeeded, 1 failed, 0 up to date"));
+  EXPECT_THAT(html, HasSubstr("12.5 s"));
+  EXPECT_EQ(occurrences(html, "<tr"), 3u);  // header and two scans
+
+  // The success: thumbnail, report link, figures
+  EXPECT_THAT(html, HasSubstr("<img src=\"lab%20%231/bunny.ply/render/view00_apo.png\""));
+  EXPECT_THAT(html, HasSubstr("<a href=\"lab%20%231/bunny.ply/report.html\">lab #1/bunny.ply</a>"));
+  EXPECT_THAT(html, HasSubstr("460,400"));
+  EXPECT_THAT(html, HasSubstr("1,204,332"));
+  EXPECT_THAT(html, HasSubstr("3,000"));
+  EXPECT_THAT(html, HasSubstr("1.0 MiB"));
+  EXPECT_THAT(html, HasSubstr("2.40&deg; / 4.80&deg; (2.0&times;)"));
+  EXPECT_THAT(html, HasSubstr("6.00 s"));
+
+  // The failure: stage and message, escaped, no thumbnail, no report link
+  EXPECT_THAT(html, HasSubstr("<tr class=\"failed\">"));
+  EXPECT_THAT(html, HasSubstr("failed at stage <b>reconstruct</b>: line 3: expected 3 fields, found &lt;2&gt;"));
+  EXPECT_THAT(html, HasSubstr("bad/&lt;b&gt;x&lt;/b&gt;.pcd"));
+  EXPECT_THAT(html, Not(HasSubstr("<b>x</b>")));
+  EXPECT_THAT(html, Not(HasSubstr("bad/%3Cb%3Ex%3C/b%3E.pcd/report.html")));
+  EXPECT_THAT(html, HasSubstr("href=\"bad/%3Cb%3Ex%3C/b%3E.pcd/manifest.json\""));
+  EXPECT_EQ(occurrences(html, "<img"), 1u);
+}
+
+// The row names the scan: the message does not repeat the input's path. A
+// scan whose mesh was not simplified says m is M rather than a ratio to an
+// error of zero.
+TEST(BatchIndexHtml, FailureWithoutThePathAndMIsMWithoutARatio) {
+  Json failed = failedAfterIngest("a.ply", "scans/a.ply: line 3: expected 3 fields");
+  Json same = succeededManifest("small.off", 1);
+  same["results"]["simplify"]["faces"] = {{"in", 2000}, {"target", 3000}, {"out", 2000}};
+  same["results"]["render"]["overall"]["baseline"]["mean"] = 0.0;
+  const std::string html = batchIndexHtml({{"a.ply", failed}, {"small.off", same}}, Json::object());
+  EXPECT_THAT(html, HasSubstr("failed at stage <b>reconstruct</b>: line 3: expected 3 fields"));
+  EXPECT_THAT(html, Not(HasSubstr("scans/a.ply: line 3")));
+  EXPECT_THAT(html, HasSubstr("2.40&deg; / 0.00&deg; (m is M)"));
+  // The scan's own report keeps the whole message.
+  EXPECT_THAT(qaReportHtml(failed), HasSubstr("scans/a.ply: line 3: expected 3 fields"));
+}
+
+TEST(BatchIndexHtml, AScanWithoutManifestIsListed) {
+  const std::string html = batchIndexHtml({{"lost.ply", Json::object()}}, Json::object());
+  EXPECT_THAT(html, HasSubstr("no manifest"));
+  EXPECT_THAT(html, HasSubstr("lost.ply"));
+}
+
+}  // namespace
+}  // namespace apo
