@@ -29,7 +29,7 @@ for target in "${targets[@]}"; do
   log="$build/fuzz_$target.log"
   # The grown corpus first (new inputs go there), the committed seeds second.
   set +e
-  "$build/fuzz/fuzz_$target" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -malloc_limit_mb=1024 \
+  "$build/fuzz_$target" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -malloc_limit_mb=1024 \
     -print_final_stats=1 -artifact_prefix="$build/artifacts/$target-" \
     "$build/corpus/$target" "fuzz/corpus/$target" >"$log" 2>&1
   status=$?

@@ -118,6 +118,14 @@ Scan makeTorus(float majorRadius, float minorRadius, int segments, int rings) {
   return mesh;
 }
 
+Scan squareOfTwoTriangles() {
+  Scan mesh;
+  mesh.points.positions = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+  mesh.points.intensities = {0, 1, 2, 3};
+  mesh.triangles = {{0, 1, 2}, {0, 2, 3}};
+  return mesh;
+}
+
 Scan makeSquareGrid(int n) {
   Scan grid;
   for (int i = 0; i <= n; ++i)

@@ -80,6 +80,10 @@ Scan makeIcosphere(int subdivisions);
 // `segments` x `rings` quads split into outward-facing triangles.
 Scan makeTorus(float majorRadius, float minorRadius, int segments, int rings);
 
+// The unit square in z = 0 as two triangles {0, 1, 2}, {0, 2, 3} over the
+// corners (0,0) (1,0) (1,1) (0,1), with intensities 0 to 3.
+Scan squareOfTwoTriangles();
+
 // The unit square in z = 0 as n x n quads, each split into two triangles
 // facing +z.
 Scan makeSquareGrid(int n);

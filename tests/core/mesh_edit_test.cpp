@@ -1,20 +1,14 @@
 #include "core/mesh_edit.h"
 
+#include "tests/test_support.h"
+
 #include <gtest/gtest.h>
 
 namespace apo {
 namespace {
 
-Scan squareOfTwoTriangles() {
-  Scan mesh;
-  mesh.points.positions = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
-  mesh.points.intensities = {0, 1, 2, 3};
-  mesh.triangles = {{0, 1, 2}, {0, 2, 3}};
-  return mesh;
-}
-
 TEST(KeepPoints, CompactsAttributesAndRenumbersTriangles) {
-  Scan mesh = squareOfTwoTriangles();
+  Scan mesh = test::squareOfTwoTriangles();
   EXPECT_EQ(keepPoints(mesh, {1, 0, 1, 1}), 1u);  // vertex 1 goes, and triangle {0, 1, 2} with it
   EXPECT_EQ(mesh.points.intensities, (std::vector<float>{0, 2, 3}));
   EXPECT_EQ(mesh.triangles, (std::vector<Triangle>{{0, 1, 2}}));
@@ -31,7 +25,7 @@ TEST(DropDegenerateTriangles, RepeatedIndexAndZeroArea) {
 }
 
 TEST(DropUnreferencedVertices, RenumbersTriangles) {
-  Scan mesh = squareOfTwoTriangles();
+  Scan mesh = test::squareOfTwoTriangles();
   mesh.points.positions.insert(mesh.points.positions.begin(), Vec3f(9, 9, 9));
   mesh.points.intensities.insert(mesh.points.intensities.begin(), 99.0f);
   for (auto& t : mesh.triangles)

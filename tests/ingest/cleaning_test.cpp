@@ -1,5 +1,7 @@
 #include "ingest/cleaning.h"
 
+#include "tests/test_support.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -11,16 +13,8 @@ namespace {
 
 constexpr float kNan = std::numeric_limits<float>::quiet_NaN();
 
-Scan squareOfTwoTriangles() {
-  Scan mesh;
-  mesh.points.positions = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
-  mesh.points.intensities = {0, 1, 2, 3};
-  mesh.triangles = {{0, 1, 2}, {0, 2, 3}};
-  return mesh;
-}
-
 TEST(DropNonFinitePoints, RemovesPointsAndTheirTriangles) {
-  Scan mesh = squareOfTwoTriangles();
+  Scan mesh = test::squareOfTwoTriangles();
   mesh.points.positions[3] = {kNan, 0, 0};
   EXPECT_EQ(dropNonFinitePoints(mesh), 1u);
   EXPECT_EQ(mesh.points.size(), 3u);
@@ -63,7 +57,7 @@ TEST(MergeDuplicatePoints, MatchesBruteForceOnRandomGrid) {
 }
 
 TEST(DropDuplicateTriangles, SameVerticesInAnyOrder) {
-  Scan mesh = squareOfTwoTriangles();
+  Scan mesh = test::squareOfTwoTriangles();
   mesh.triangles.push_back({2, 0, 1});
   mesh.triangles.push_back({0, 3, 2});  // opposite winding of {0,2,3}
   EXPECT_EQ(dropDuplicateTriangles(mesh), 2u);
