@@ -86,6 +86,20 @@ def text_seeds():
     put("stl", "binary.stl", binary)
 
 
+def hostile_seeds():
+    """The broken files of the tests and of bench/pipeline_bench.sh."""
+    put("ply", "huge_count.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 2000000000\nproperty float x\n"
+        "property float y\nproperty float z\nend_header\n")
+    put("ply", "truncated.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 100\nproperty float x\n"
+        "property float y\nproperty float z\nend_header\n" + "\0" * 40)
+    put("off", "bad_index.off", "OFF\n4 2 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 2\n3 0 1 9\n")
+    put("pcd", "short.pcd", "VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 10\nHEIGHT 1\n"
+        "POINTS 10\nDATA ascii\n1 2 3\n")
+    put("stl", "count_past_end.stl", b"x".ljust(80, b" ") + struct.pack("<I", 1000000) + b"\0" * 50)
+    put("obj", "bad_face.obj", "v 0 0 0\nv 1 0 0\nf 1 2 7\nf 1/2/3/4 2\n")
+    put("xyz", "nan.xyz", "nan 0 0\n1 inf 0\n1 2\n")
+
+
 def config_seeds():
     put("config", "stages.toml", "faces = 5000\nerror = 0.01\nmethod = \"poisson\"\nno-filter = true\nsize = 256\n")
     put("config", "lists.toml", "# every kind of value\nsensor = [1.0, 2.0, 3.5]\nvoxel = 0.5\nremove-outliers = true\npolicy = 'lt'\n")
@@ -103,5 +117,6 @@ if __name__ == "__main__":
     ply_seeds()
     pcd_seeds()
     text_seeds()
+    hostile_seeds()
     config_seeds()
     apo_seeds()
