@@ -5,6 +5,8 @@
 # A crash, leak, sanitizer report or timeout fails the run and leaves its
 # input in build-fuzz/artifacts/. Prints a table of executions per target.
 #   bash fuzz/run.sh [SECONDS] [TARGET...]      (targets: ply pcd xyz off obj stl apo config)
+# FUZZ_RUNS=N stops a target after N executions (whichever comes first);
+# FUZZ_JOBS=N runs N targets at a time (default 1).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-60}
@@ -12,7 +14,7 @@ shift || true
 targets=("$@")
 [ ${#targets[@]} -gt 0 ] || targets=(ply pcd xyz off obj stl apo config)
 build=build-fuzz
-mkdir -p "$build"
+mkdir -p "$build/artifacts"
 
 CC=clang CXX=clang++ cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DAPO_FUZZ=ON \
   -DAPO_BUILD_TESTS=OFF -DAPO_BUILD_BENCHMARKS=OFF >"$build/configure.log" 2>&1 ||
@@ -20,30 +22,35 @@ CC=clang CXX=clang++ cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -D
 cmake --build "$build" -j2 --target "${targets[@]/#/fuzz_}" >"$build/build.log" 2>&1 ||
   { tail -n 40 "$build/build.log"; exit 1; }
 
-mkdir -p "$build/artifacts"
-summary="$build/fuzz-summary.md"
-printf '| target | seconds | executions | exec/s | corpus | result |\n|---|---|---|---|---|---|\n' >"$summary"
-failed=0
-for target in "${targets[@]}"; do
+# One target: its row of the table in $build/result_<target>.
+fuzz_one() {
+  local target=$1 log="$build/fuzz_$1.log" status=0
   mkdir -p "$build/corpus/$target"
-  log="$build/fuzz_$target.log"
   # The grown corpus first (new inputs go there), the committed seeds second.
-  set +e
-  "$build/fuzz_$target" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -malloc_limit_mb=1024 \
-    -print_final_stats=1 -artifact_prefix="$build/artifacts/$target-" \
-    "$build/corpus/$target" "fuzz/corpus/$target" >"$log" 2>&1
-  status=$?
-  set -e
+  "$build/fuzz_$target" -max_total_time="$seconds" ${FUZZ_RUNS:+-runs=$FUZZ_RUNS} -timeout=10 -rss_limit_mb=2048 \
+    -malloc_limit_mb=1024 -print_final_stats=1 -artifact_prefix="$build/artifacts/$target-" \
+    "$build/corpus/$target" "fuzz/corpus/$target" >"$log" 2>&1 || status=$?
+  local executions rate elapsed corpus result=ok
   executions=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo 0)
   rate=$(grep -o 'stat::average_exec_per_sec: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo 0)
+  elapsed=$(grep -o 'Done [0-9]* runs in [0-9]* second' "$log" | grep -o '[0-9]* second' | grep -o '[0-9]*' || echo "$seconds")
   corpus=$(find "$build/corpus/$target" -type f | wc -l)
-  result=ok
-  if [ $status -ne 0 ]; then
+  if [ "$status" -ne 0 ]; then
     result="FAILED (exit $status, see $log)"
-    failed=1
     grep -E 'ERROR|SUMMARY|Test unit written' "$log" | head -n 5 >&2 || true
   fi
-  printf '| %s | %s | %s | %s | %s | %s |\n' "$target" "$seconds" "$executions" "$rate" "$corpus" "$result" >>"$summary"
-done
+  printf '| %s | %s | %s | %s | %s | %s |\n' "$target" "$elapsed" "$executions" "$rate" "$corpus" "$result" \
+    >"$build/result_$target"
+}
+export -f fuzz_one
+export build seconds FUZZ_RUNS
+
+rm -f "$build"/result_*
+printf '%s\n' "${targets[@]}" | xargs -P "${FUZZ_JOBS:-1}" -I{} bash -c 'fuzz_one {}'
+summary="$build/fuzz-summary.md"
+{
+  printf '| target | seconds | executions | exec/s | corpus | result |\n|---|---|---|---|---|---|\n'
+  for target in "${targets[@]}"; do cat "$build/result_$target"; done
+} >"$summary"
 cat "$summary"
-exit $failed
+! grep -q FAILED "$summary"
