@@ -29,7 +29,7 @@ int runBatchCommand(CLI::App& app, const BatchCommand& command) {
   settings.workerArguments = givenStageArguments(app);
   const Result<BatchSummary> summary = runBatch(settings);
   if (!summary) return reportFailure(summary.error());
-  return summary->failed == 0 ? kExitSuccess : kExitBadInput;
+  return summary->failed == 0 && summary->notProcessed == 0 ? kExitSuccess : kExitBadInput;
 }
 
 }  // namespace
@@ -38,7 +38,7 @@ void addBatchCommand(CLI::App& app, int& exitCode) {
   auto command = std::make_shared<BatchCommand>();
   CLI::App* sub = app.add_subcommand(
       "batch", "apo run on every scan under a folder, N at a time, resuming where an earlier batch stopped; "
-               "OUTDIR/index.html lists them (exit code 2 if any scan failed)");
+               "OUTDIR/index.html lists them (exit code 2 if any scan failed or any file was not processed)");
   sub->add_option("scans", command->scanDir, "Folder searched recursively for scans by extension")->required();
   sub->add_option("-o,--out", command->outDir, "Output folder: one folder per scan, at its path under the scan folder")
       ->required();

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <limits>
 #include <optional>
+#include <string>
 #include <vector>
 
 namespace apo {
@@ -26,12 +27,18 @@ struct PointSet {
   std::vector<Vec3f> positions;
   std::vector<Vec3f> normals;      // unit length when present
   std::vector<Rgb8> colors;
-  std::vector<float> intensities;  // PLY confidence/intensity, PCD intensity
+  std::vector<float> intensities;  // PLY confidence/intensity, PCD intensity, LAS intensity
+  // Lidar attributes (LAS): the ASPRS class, and the return's number among
+  // its pulse's returns (1-based) with that count.
+  std::vector<std::uint8_t> classifications;
+  std::vector<std::uint8_t> returnNumbers, returnCounts;
 
   std::size_t size() const { return positions.size(); }
   bool hasNormals() const { return !normals.empty(); }
   bool hasColors() const { return !colors.empty(); }
   bool hasIntensities() const { return !intensities.empty(); }
+  bool hasClassifications() const { return !classifications.empty(); }
+  bool hasReturns() const { return !returnNumbers.empty(); }
 };
 
 // Indices into PointSet::positions, counter-clockwise seen from outside.
@@ -50,8 +57,17 @@ struct Scan {
   PointSet points;
   std::vector<Triangle> triangles;
   std::optional<Viewpoint> viewpoint;
+  // The local frame: the file's coordinates are origin + position. Readers
+  // move coordinates far from zero (georeferenced lidar, in UTM metres) near
+  // it, in double precision, so that float positions keep the scan's
+  // detail; zero for everything else. Every stage keeps it.
+  std::array<double, 3> origin = {0.0, 0.0, 0.0};
+  // What the reader skipped or turned into something else, in words
+  // ("element 'edge' (120 items) skipped"), for ingest.json.
+  std::vector<std::string> readNotes;
 
   bool isMesh() const { return !triangles.empty(); }
+  bool isGeoreferenced() const { return origin != std::array<double, 3>{0.0, 0.0, 0.0}; }
 };
 
 struct Aabb {

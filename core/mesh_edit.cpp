@@ -41,6 +41,9 @@ std::size_t keepPoints(Scan& scan, const std::vector<char>& keep) {
   compact(points.normals, keep);
   compact(points.colors, keep);
   compact(points.intensities, keep);
+  compact(points.classifications, keep);
+  compact(points.returnNumbers, keep);
+  compact(points.returnCounts, keep);
   remapTriangles(scan.triangles, newIndex);
   return removed;
 }

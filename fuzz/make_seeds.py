@@ -106,6 +106,19 @@ def config_seeds():
     put("config", "bad.toml", "[bake]\nerror = -1\nunknown = 3\n")
 
 
+def las_seeds():
+    """PDAL's test files (../shared/data/las, from PDAL/PDAL test/data/las and
+    laz at ccf0ab7), all but the 812 KB 4_6_crop.las; the LAS reader's tests
+    read them from here too."""
+    source = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "shared", "data", "las")
+    if not os.path.isdir(source):
+        return
+    os.makedirs(os.path.join(ROOT, "las"), exist_ok=True)
+    for name in sorted(os.listdir(source)):
+        if name.endswith((".las", ".laz")) and name != "4_6_crop.las":
+            shutil.copyfile(os.path.join(source, name), os.path.join(ROOT, "las", name))
+
+
 def apo_seeds():
     golden = os.path.join(os.path.dirname(ROOT), "..", "tests", "golden", "v1", "scan.apo")
     if os.path.exists(golden):
@@ -119,4 +132,5 @@ if __name__ == "__main__":
     text_seeds()
     hostile_seeds()
     config_seeds()
+    las_seeds()
     apo_seeds()

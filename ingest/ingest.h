@@ -1,5 +1,5 @@
-// ingest: reads a scan (point cloud or dense mesh) from PLY, PCD, XYZ/XYZN/PTS,
-// OFF, OBJ or STL, validates it, cleans it, and gives point clouds oriented
+// ingest: reads a scan (point cloud or dense mesh) from PLY, PCD, XYZ/XYZN/PTS/CSV,
+// OFF, OBJ, STL or LAS, validates it, cleans it, and gives point clouds oriented
 // normals. Every failure on untrusted input is a BadInput Error whose message
 // names the file, the position in it (line or byte offset) and the problem.
 #pragma once
@@ -16,13 +16,13 @@
 
 namespace apo {
 
-enum class ScanFormat { Ply, Pcd, Xyz, Off, Obj, Stl };
+enum class ScanFormat { Ply, Pcd, Xyz, Off, Obj, Stl, Las };
 
-// Name used in reports: "ply", "pcd", "xyz", "off", "obj", "stl".
+// Name used in reports: "ply", "pcd", "xyz", "off", "obj", "stl", "las".
 std::string formatName(ScanFormat format);
 
 // The format a path's extension names (case-insensitive: .ply .pcd .xyz .xyzn
-// .pts .pwn .off .obj .stl); a BadInput error for anything else.
+// .pts .pwn .csv .asc .off .obj .stl .las .laz); a BadInput error for anything else.
 Result<ScanFormat> formatFromExtension(const std::filesystem::path& path);
 // Whether formatFromExtension accepts the path.
 bool hasScanExtension(const std::filesystem::path& path);

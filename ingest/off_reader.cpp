@@ -4,9 +4,11 @@
 // taken from a token stream that may cross lines (as CGAL reads it), and the
 // optional values after them (colors) are the rest of that element's last line.
 #include "ingest/parse_util.h"
+#include "ingest/positions.h"
 #include "ingest/readers.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -124,6 +126,16 @@ void checkOffCountsFit(const OffHeader& header, std::size_t headerLine, const Te
     fail("line {}: {} vertices are more than a scan can index", headerLine, vertexCount);
 }
 
+std::array<double, 3> readOffPosition(OffTokens& tokens, std::int64_t vertex, std::int64_t vertexCount) {
+  std::array<double, 3> p{};
+  std::string_view token;
+  for (int axis = 0; axis < 3; ++axis) {
+    if (!tokens.next(token)) fail("line {}: file ends after {} of {} vertices", tokens.line(), vertex, vertexCount);
+    p[axis] = tokens.cursor().number(token, "a vertex");
+  }
+  return p;
+}
+
 Vec3f readOffVector(OffTokens& tokens, std::int64_t vertex, std::int64_t vertexCount) {
   Vec3f v;
   std::string_view token;
@@ -157,19 +169,24 @@ Rgb8 readOffColor(const TextCursor& cursor, std::span<const std::string_view> va
   return {channels[0], channels[1], channels[2]};
 }
 
-void readOffVertices(OffTokens& tokens, const OffHeader& header, PointSet& points) {
+// Positions in double, into the local frame (positions.h).
+void readOffVertices(OffTokens& tokens, const OffHeader& header, Scan& scan) {
   const auto count = static_cast<std::size_t>(header.vertexCount);
-  points.positions.reserve(count);
+  PointSet& points = scan.points;
+  PositionCollector positions;
+  positions.reserve(count);
   if (header.hasNormals) points.normals.reserve(count);
   if (header.hasColors) points.colors.reserve(count);
   for (std::int64_t v = 0; v < header.vertexCount; ++v) {
-    points.positions.push_back(readOffVector(tokens, v, header.vertexCount));
+    const std::array<double, 3> p = readOffPosition(tokens, v, header.vertexCount);
+    positions.push(p[0], p[1], p[2]);
     if (header.hasNormals) points.normals.push_back(readOffVector(tokens, v, header.vertexCount));
     // Values after those a plain vertex needs (texture coordinates, colors
     // in an "OFF" file) are ignored, as CGAL does.
     const auto extra = tokens.restOfLine();
     if (header.hasColors) points.colors.push_back(readOffColor(tokens.cursor(), extra, v));
   }
+  positions.finishInto(scan);
 }
 
 std::uint32_t readOffIndex(OffTokens& tokens, std::int64_t face, std::size_t vertexCount) {
@@ -210,7 +227,7 @@ Scan readOff(std::string_view bytes) {
   const OffHeader header = readOffHeader(tokens);
   checkOffCountsFit(header, tokens.line(), tokens.cursor(), bytes.size());
   Scan scan;
-  readOffVertices(tokens, header, scan.points);
+  readOffVertices(tokens, header, scan);
   readOffFaces(tokens, header.faceCount, scan.points.size(), scan.triangles);
   return scan;
 }

@@ -9,7 +9,10 @@
 // that remain before anything is allocated for it.
 #include "core/error.h"
 #include "ingest/parse_util.h"
+#include "ingest/positions.h"
 #include "ingest/readers.h"
+
+#include <fmt/format.h>
 
 #include <array>
 #include <cmath>
@@ -83,6 +86,9 @@ struct Header {
   Encoding encoding = Encoding::Ascii;
   std::vector<Element> elements;
   std::size_t endLine = 0;  // line of end_header
+  // "comment apo_origin X Y Z": apo's own PLY files in a local frame (the
+  // writer's), whose origin comes back into Scan::origin.
+  std::optional<std::array<double, 3>> origin;
   // Positioned just after end_header: the ascii body continues from it, the
   // binary body starts at its offset.
   parse::TextCursor afterHeader{std::string_view{}};
@@ -145,6 +151,14 @@ Property parsePropertyLine(const std::vector<std::string_view>& tokens, std::siz
   return {std::string(tokens[2]), parseScalarType(tokens[1], line), std::nullopt};
 }
 
+std::array<double, 3> parseOriginComment(const std::vector<std::string_view>& tokens, std::size_t line) {
+  std::array<double, 3> origin{};
+  for (int axis = 0; axis < 3; ++axis)
+    if (!parse::parseNumber(tokens[2 + axis], origin[axis]) || !std::isfinite(origin[axis]))
+      fail("line {}: apo_origin coordinate {} is not a finite number", line, parse::quoted(tokens[2 + axis]));
+  return origin;
+}
+
 Header parseHeader(std::string_view bytes) {
   if (bytes.empty()) fail("empty file");
   Header header;
@@ -172,8 +186,10 @@ Header parseHeader(std::string_view bytes) {
     } else if (keyword == "property") {
       if (header.elements.empty()) fail("line {}: property declared before any element", lineNumber);
       header.elements.back().properties.push_back(parsePropertyLine(tokens, lineNumber));
+    } else if (keyword == "comment" && tokens.size() == 5 && tokens[1] == "apo_origin") {
+      header.origin = parseOriginComment(tokens, lineNumber);
     }
-    // comment, obj_info and unknown lines carry nothing we use.
+    // Other comments, obj_info and unknown lines carry nothing we use.
   }
   fail("line {}: header has no end_header line", cursor.lineNumber());
 }
@@ -202,13 +218,15 @@ std::optional<std::size_t> findScalar(const Element& element, std::initializer_l
 }
 
 // Where each vertex property's value goes.
-enum VertexSlot : std::uint8_t { kX, kY, kZ, kNx, kNy, kNz, kRed, kGreen, kBlue, kIntensity, kSlotCount };
+enum VertexSlot : std::uint8_t {
+  kX, kY, kZ, kNx, kNy, kNz, kRed, kGreen, kBlue, kIntensity, kClassification, kReturnNumber, kReturnCount, kSlotCount
+};
 constexpr std::uint8_t kSkip = kSlotCount;
 
 struct VertexPlan {
   const Element* element = nullptr;
   std::vector<std::uint8_t> slotOfProperty;  // a VertexSlot, or kSkip
-  bool normals = false, colors = false, intensities = false;
+  bool normals = false, colors = false, intensities = false, classifications = false, returns = false;
   std::array<ScalarType, 3> colorTypes{};  // red, green, blue: decide scaling
 };
 
@@ -250,6 +268,17 @@ VertexPlan planVertices(const Header& header) {
     plan.intensities = true;
     plan.slotOfProperty[*intensity] = kIntensity;
   }
+  if (const auto classification = findScalar(element, {"classification", "scalar_classification"})) {
+    plan.classifications = true;
+    plan.slotOfProperty[*classification] = kClassification;
+  }
+  const auto returnNumber = findScalar(element, {"return_number", "scalar_return_number"});
+  const auto returnCount = findScalar(element, {"number_of_returns", "scalar_number_of_returns"});
+  if (returnNumber && returnCount) {
+    plan.returns = true;
+    plan.slotOfProperty[*returnNumber] = kReturnNumber;
+    plan.slotOfProperty[*returnCount] = kReturnCount;
+  }
   return plan;
 }
 
@@ -258,19 +287,20 @@ struct FacePlan {
   std::size_t indexProperty = 0;
 };
 
-FacePlan planFaces(const Header& header) {
+// The vertex index list of element `name` ("face" or "tristrips").
+FacePlan planFaces(const Header& header, std::string_view name = "face") {
   FacePlan plan;
-  plan.element = findUniqueElement(header, "face");
+  plan.element = findUniqueElement(header, name);
   if (!plan.element) return plan;
   const std::vector<Property>& properties = plan.element->properties;
   for (std::size_t i = 0; i < properties.size(); ++i) {
     if (properties[i].name != "vertex_indices" && properties[i].name != "vertex_index") continue;
     if (!properties[i].isList())
-      fail("line {}: face property '{}' is not a list", plan.element->line, properties[i].name);
+      fail("line {}: {} property '{}' is not a list", plan.element->line, name, properties[i].name);
     plan.indexProperty = i;
     return plan;
   }
-  fail("line {}: element face has no 'vertex_indices' list", plan.element->line);
+  fail("line {}: element {} has no 'vertex_indices' list", plan.element->line, name);
 }
 
 // --- Body sources ------------------------------------------------------------
@@ -457,6 +487,13 @@ float toFloat(double value) {
   return static_cast<float>(value);
 }
 
+// A lidar attribute stored as a byte; out-of-range values are clamped.
+std::uint8_t attributeByte(double value) {
+  if (!(value > 0)) return 0;
+  if (value >= 255) return 255;
+  return static_cast<std::uint8_t>(value);
+}
+
 // Integer channels are taken as 0..255; floating ones as 0..1, scaled.
 std::uint8_t colorByte(double value, ScalarType type) {
   const double scaled = isFloating(type) ? value * 255.0 : value;
@@ -474,13 +511,20 @@ void skipProperty(const Property& property, Body& body) {
 }
 
 template <class Body>
-void readVertices(const VertexPlan& plan, Body& body, PointSet& points) {
+void readVertices(const VertexPlan& plan, Body& body, Scan& scan) {
   const Element& element = *plan.element;
   const auto count = static_cast<std::size_t>(element.count);
-  points.positions.resize(count);
+  PointSet& points = scan.points;
+  PositionCollector positions;
+  positions.reserve(count);
   if (plan.normals) points.normals.resize(count);
   if (plan.colors) points.colors.resize(count);
   if (plan.intensities) points.intensities.resize(count);
+  if (plan.classifications) points.classifications.resize(count);
+  if (plan.returns) {
+    points.returnNumbers.resize(count);
+    points.returnCounts.resize(count);
+  }
 
   std::array<double, kSlotCount> values{};
   for (std::size_t i = 0; i < count; ++i) {
@@ -494,13 +538,19 @@ void readVertices(const VertexPlan& plan, Body& body, PointSet& points) {
     }
     body.endRecord();
 
-    points.positions[i] = Vec3f(toFloat(values[kX]), toFloat(values[kY]), toFloat(values[kZ]));
+    positions.push(values[kX], values[kY], values[kZ]);
     if (plan.normals) points.normals[i] = Vec3f(toFloat(values[kNx]), toFloat(values[kNy]), toFloat(values[kNz]));
     if (plan.colors)
       points.colors[i] = {colorByte(values[kRed], plan.colorTypes[0]), colorByte(values[kGreen], plan.colorTypes[1]),
                           colorByte(values[kBlue], plan.colorTypes[2])};
     if (plan.intensities) points.intensities[i] = toFloat(values[kIntensity]);
+    if (plan.classifications) points.classifications[i] = attributeByte(values[kClassification]);
+    if (plan.returns) {
+      points.returnNumbers[i] = attributeByte(values[kReturnNumber]);
+      points.returnCounts[i] = attributeByte(values[kReturnCount]);
+    }
   }
+  positions.finishInto(scan);
 }
 
 template <class Body>
@@ -540,6 +590,58 @@ void readFaces(const FacePlan& plan, std::uint64_t vertexCount, Body& body, std:
   }
 }
 
+// Triangle strips (older scanning software writes them): each list is a
+// strip of vertex indices, -1 restarting it. Triangle i of a strip is
+// (v_i, v_i+1, v_i+2), every other one turned round so that all keep the
+// strip's winding. Triangles with a repeated vertex only join strips; they
+// are counted, not kept. Returns their count.
+template <class Body>
+std::uint64_t readTristrips(const FacePlan& plan, std::uint64_t vertexCount, Body& body, std::vector<Triangle>& triangles) {
+  const Element& element = *plan.element;
+  std::uint64_t joins = 0;
+  std::vector<std::uint32_t> strip;
+  const auto flushStrip = [&] {
+    for (std::size_t i = 0; i + 2 < strip.size(); ++i) {
+      const std::uint32_t a = strip[i], b = strip[i + 1], c = strip[i + 2];
+      if (a == b || b == c || a == c) {
+        ++joins;
+        continue;
+      }
+      triangles.push_back(i % 2 == 0 ? Triangle{a, b, c} : Triangle{b, a, c});
+    }
+    strip.clear();
+  };
+  for (std::uint64_t record = 0; record < element.count; ++record) {
+    body.beginRecord(record);
+    for (std::size_t p = 0; p < element.properties.size(); ++p) {
+      const Property& property = element.properties[p];
+      if (p != plan.indexProperty) {
+        skipProperty(property, body);
+        continue;
+      }
+      const std::uint64_t items = body.listCount(property);
+      for (std::uint64_t item = 0; item < items; ++item) {
+        const double value = body.number(property);
+        if (value == -1.0)
+          flushStrip();
+        else
+          strip.push_back(vertexIndex(value, vertexCount, record, body));
+      }
+      flushStrip();
+    }
+    body.endRecord();
+  }
+  return joins;
+}
+
+// The vertex properties no slot takes, by name.
+std::string skippedPropertyNames(const VertexPlan& plan) {
+  std::string names;
+  for (std::size_t p = 0; p < plan.element->properties.size(); ++p)
+    if (plan.slotOfProperty[p] == kSkip) names += (names.empty() ? "" : ", ") + plan.element->properties[p].name;
+  return names;
+}
+
 template <class Body>
 void skipElement(const Element& element, Body& body) {
   for (std::uint64_t i = 0; i < element.count; ++i) {
@@ -553,18 +655,32 @@ template <class Body>
 Scan readBody(const Header& header, Body& body) {
   const VertexPlan vertexPlan = planVertices(header);
   const FacePlan facePlan = planFaces(header);
+  const FacePlan stripPlan = planFaces(header, "tristrips");
   Scan scan;
   for (const Element& element : header.elements) {
     if (element.properties.empty()) continue;  // holds no data, whatever its count
     body.beginElement(element);
-    if (&element == vertexPlan.element)
-      readVertices(vertexPlan, body, scan.points);
-    else if (&element == facePlan.element)
+    if (&element == vertexPlan.element) {
+      readVertices(vertexPlan, body, scan);
+    } else if (&element == facePlan.element) {
       readFaces(facePlan, vertexPlan.element->count, body, scan.triangles);
-    else
+    } else if (&element == stripPlan.element) {
+      const std::size_t before = scan.triangles.size();
+      const std::uint64_t joins = readTristrips(stripPlan, vertexPlan.element->count, body, scan.triangles);
+      scan.readNotes.push_back(fmt::format("element tristrips: {} strips read as {} triangles ({} strip-joining "
+                                           "triangles with a repeated vertex left out)",
+                                           element.count, scan.triangles.size() - before, joins));
+    } else {
       skipElement(element, body);
+      scan.readNotes.push_back(fmt::format("element '{}' ({} {}) skipped: apo reads vertices, faces and tristrips",
+                                           element.name, element.count, element.count == 1 ? "item" : "items"));
+    }
   }
   body.finish();
+  if (const std::string skipped = skippedPropertyNames(vertexPlan); !skipped.empty())
+    scan.readNotes.push_back("vertex properties not kept: " + skipped);
+  if (header.origin)
+    for (int axis = 0; axis < 3; ++axis) scan.origin[axis] += (*header.origin)[axis];
   return scan;
 }
 

@@ -3,11 +3,14 @@
 //   ply
 //   format ascii 1.0 | format binary_little_endian 1.0
 //   comment written by apo
+//   comment apo_origin X Y Z           (if the scan is in a local frame)
 //   element vertex N
 //   property float x, y, z
 //   property float nx, ny, nz          (if normals)
 //   property uchar red, green, blue    (if colors)
 //   property float intensity           (if intensities)
+//   property uchar classification      (if classifications)
+//   property uchar return_number, number_of_returns  (if returns)
 //   element face M                     (if triangles)
 //   property list uchar int vertex_indices
 //   end_header
@@ -35,6 +38,9 @@ void checkAttributeSizes(const PointSet& points) {
   APO_CHECK(points.normals.empty() || points.normals.size() == n);
   APO_CHECK(points.colors.empty() || points.colors.size() == n);
   APO_CHECK(points.intensities.empty() || points.intensities.size() == n);
+  APO_CHECK(points.classifications.empty() || points.classifications.size() == n);
+  APO_CHECK(points.returnNumbers.size() == points.returnCounts.size());
+  APO_CHECK(points.returnNumbers.empty() || points.returnNumbers.size() == n);
   // Faces store indices as PLY "int".
   APO_CHECK_OP(n, <=, static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()));
 }
@@ -44,11 +50,15 @@ std::string header(const Scan& scan, PlyEncoding encoding) {
   std::string text = "ply\n";
   text += encoding == PlyEncoding::Ascii ? "format ascii 1.0\n" : "format binary_little_endian 1.0\n";
   text += "comment written by apo\n";
+  // Shortest round-tripping doubles: the reader gets the same origin back.
+  if (scan.isGeoreferenced()) text += fmt::format("comment apo_origin {} {} {}\n", scan.origin[0], scan.origin[1], scan.origin[2]);
   text += fmt::format("element vertex {}\n", points.size());
   text += "property float x\nproperty float y\nproperty float z\n";
   if (points.hasNormals()) text += "property float nx\nproperty float ny\nproperty float nz\n";
   if (points.hasColors()) text += "property uchar red\nproperty uchar green\nproperty uchar blue\n";
   if (points.hasIntensities()) text += "property float intensity\n";
+  if (points.hasClassifications()) text += "property uchar classification\n";
+  if (points.hasReturns()) text += "property uchar return_number\nproperty uchar number_of_returns\n";
   if (scan.isMesh()) {
     text += fmt::format("element face {}\n", scan.triangles.size());
     text += "property list uchar int vertex_indices\n";
@@ -75,6 +85,9 @@ void appendAsciiBody(const Scan& scan, std::string& out) {
       fmt::format_to(sink, " {} {} {}", unsigned{c.r}, unsigned{c.g}, unsigned{c.b});
     }
     if (points.hasIntensities()) fmt::format_to(sink, " {}", points.intensities[i]);
+    if (points.hasClassifications()) fmt::format_to(sink, " {}", unsigned{points.classifications[i]});
+    if (points.hasReturns())
+      fmt::format_to(sink, " {} {}", unsigned{points.returnNumbers[i]}, unsigned{points.returnCounts[i]});
     text.push_back('\n');
   }
   for (const Triangle& t : scan.triangles) fmt::format_to(sink, "3 {} {} {}\n", t[0], t[1], t[2]);
@@ -98,7 +111,8 @@ void appendVec3(std::string& out, const Vec3f& v) {
 void appendBinaryBody(const Scan& scan, std::string& out) {
   const PointSet& points = scan.points;
   const std::size_t vertexBytes = 12 + (points.hasNormals() ? 12 : 0) + (points.hasColors() ? 3 : 0) +
-                                  (points.hasIntensities() ? 4 : 0);
+                                  (points.hasIntensities() ? 4 : 0) + (points.hasClassifications() ? 1 : 0) +
+                                  (points.hasReturns() ? 2 : 0);
   constexpr std::size_t kFaceBytes = 1 + 3 * 4;
   out.reserve(out.size() + points.size() * vertexBytes + scan.triangles.size() * kFaceBytes);
   for (std::size_t i = 0; i < points.size(); ++i) {
@@ -111,6 +125,11 @@ void appendBinaryBody(const Scan& scan, std::string& out) {
       out += static_cast<char>(c.b);
     }
     if (points.hasIntensities()) appendLittleEndian(out, points.intensities[i]);
+    if (points.hasClassifications()) out += static_cast<char>(points.classifications[i]);
+    if (points.hasReturns()) {
+      out += static_cast<char>(points.returnNumbers[i]);
+      out += static_cast<char>(points.returnCounts[i]);
+    }
   }
   for (const Triangle& t : scan.triangles) {
     out += static_cast<char>(3);

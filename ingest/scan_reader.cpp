@@ -18,6 +18,7 @@ std::string formatName(ScanFormat format) {
     case ScanFormat::Off: return "off";
     case ScanFormat::Obj: return "obj";
     case ScanFormat::Stl: return "stl";
+    case ScanFormat::Las: return "las";
   }
   return "unknown";
 }
@@ -32,7 +33,22 @@ struct ExtensionFormat {
 constexpr ExtensionFormat kExtensions[] = {
     {".ply", ScanFormat::Ply}, {".pcd", ScanFormat::Pcd}, {".xyz", ScanFormat::Xyz}, {".xyzn", ScanFormat::Xyz},
     {".pts", ScanFormat::Xyz}, {".pwn", ScanFormat::Xyz}, {".off", ScanFormat::Off}, {".obj", ScanFormat::Obj},
-    {".stl", ScanFormat::Stl},
+    {".stl", ScanFormat::Stl}, {".las", ScanFormat::Las}, {".laz", ScanFormat::Las}, {".csv", ScanFormat::Xyz},
+    {".asc", ScanFormat::Xyz},
+};
+
+// Scan formats labs meet that apo has no reader for, so that the refusal can
+// say what the file is and what to do.
+struct KnownFormat {
+  const char* extension;
+  const char* name;
+};
+constexpr KnownFormat kUnreadFormats[] = {
+    {".e57", "E57 (ASTM E2807)"},          {".ptx", "Leica PTX"},          {".ptg", "Leica PTG"},
+    {".fls", "FARO scan"},                 {".fws", "FARO workspace"},     {".rcp", "Autodesk ReCap project"},
+    {".rcs", "Autodesk ReCap scan"},       {".zfs", "Z+F scan"},           {".x3a", "RIEGL scan"},
+    {".rdbx", "RIEGL RDB"},                {".3mf", "3MF mesh"},           {".gltf", "glTF"},
+    {".glb", "glTF binary"},               {".fbx", "FBX"},                {".dae", "COLLADA"},
 };
 
 std::string lowercase(std::string text) {
@@ -44,7 +60,10 @@ std::string lowercase(std::string text) {
 
 std::string scanExtensionList() {
   std::string list;
-  for (const ExtensionFormat& entry : kExtensions) list += (list.empty() ? "" : " ") + std::string(entry.extension);
+  for (const ExtensionFormat& entry : kExtensions) {
+    if (!list.empty()) list += ' ';
+    list += entry.extension;
+  }
   return list;
 }
 
@@ -54,7 +73,11 @@ Result<ScanFormat> formatFromExtension(const fs::path& path) {
   const std::string extension = lowercase(path.extension().string());
   for (const ExtensionFormat& entry : kExtensions)
     if (extension == entry.extension) return entry.format;
-  return badInput("{}: unsupported extension '{}' (supported: {})", path.string(), extension, scanExtensionList());
+  for (const KnownFormat& known : kUnreadFormats)
+    if (extension == known.extension)
+      return badInput("{}: {} files have no reader in apo: export the scan as PLY, LAS or XYZ (apo reads: {})",
+                      path.string(), known.name, scanExtensionList());
+  return badInput("{}: unsupported extension '{}' (apo reads: {})", path.string(), extension, scanExtensionList());
 }
 
 Result<Scan> readScan(const fs::path& path) {
@@ -76,6 +99,7 @@ Result<Scan> readScan(const fs::path& path, ScanFormat format) {
       case ScanFormat::Off: return readers::readOff(content);
       case ScanFormat::Obj: return readers::readObj(content);
       case ScanFormat::Stl: return readers::readStl(content);
+      case ScanFormat::Las: return readers::readLas(content);
     }
   } catch (const parse::ParseFailure& failure) {
     return badInput("{}: {}", path.string(), failure.what());

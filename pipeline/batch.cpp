@@ -38,13 +38,29 @@ struct ScanJob {
   fs::path outDir;
 };
 
-// Scan files under `scanDir` by extension, sorted by relative path; OUTDIR is
-// not searched when it lies inside SCANDIR (its meshes are outputs).
-Result<std::vector<ScanJob>> findScans(const fs::path& scanDir, const fs::path& outDir) {
+// A file under SCANDIR that is not a scan apo reads, and why.
+struct NotProcessed {
+  std::string relative;
+  std::string reason;
+};
+
+struct FolderContents {
+  std::vector<ScanJob> scans;
+  std::vector<NotProcessed> others;
+};
+
+bool isHidden(const fs::path& relative) {
+  return std::any_of(relative.begin(), relative.end(), [](const fs::path& part) { return part.string().starts_with('.'); });
+}
+
+// Scan files under `scanDir` by extension, sorted by relative path, and every
+// other (not hidden) file with the reason it is not one; OUTDIR is not
+// searched when it lies inside SCANDIR (its meshes are outputs).
+Result<FolderContents> findScans(const fs::path& scanDir, const fs::path& outDir) {
   std::error_code error;
   if (!fs::is_directory(scanDir, error)) return badInput("{}: not a folder", scanDir.string());
   const fs::path outCanonical = fs::weakly_canonical(outDir, error);
-  std::vector<ScanJob> jobs;
+  FolderContents found;
   fs::recursive_directory_iterator it(scanDir, fs::directory_options::skip_permission_denied, error);
   if (error) return badInput("{}: cannot list: {}", scanDir.string(), error.message());
   for (; it != fs::recursive_directory_iterator(); it.increment(error)) {
@@ -53,16 +69,23 @@ Result<std::vector<ScanJob>> findScans(const fs::path& scanDir, const fs::path& 
       it.disable_recursion_pending();
       continue;
     }
-    if (!it->is_regular_file(error) || !hasScanExtension(it->path())) continue;
+    if (!it->is_regular_file(error)) continue;
     // Lexically, as found: fs::relative would follow a symlinked scan to its
     // target and put its output folder wherever that lies (on the input).
     const fs::path relative = it->path().lexically_relative(scanDir);
     if (relative.empty() || *relative.begin() == "..")
       return internalError("{}: found outside the scan folder {}", it->path().string(), scanDir.string());
-    jobs.push_back({it->path(), relative.generic_string(), outDir / relative});
+    if (isHidden(relative)) continue;
+    const Result<ScanFormat> format = formatFromExtension(relative);
+    if (format)
+      found.scans.push_back({it->path(), relative.generic_string(), outDir / relative});
+    else
+      found.others.push_back({relative.generic_string(), format.error().message});
   }
-  std::sort(jobs.begin(), jobs.end(), [](const ScanJob& a, const ScanJob& b) { return a.relative < b.relative; });
-  return jobs;
+  std::sort(found.scans.begin(), found.scans.end(), [](const ScanJob& a, const ScanJob& b) { return a.relative < b.relative; });
+  std::sort(found.others.begin(), found.others.end(),
+            [](const NotProcessed& a, const NotProcessed& b) { return a.relative < b.relative; });
+  return found;
 }
 
 // An output folder may be emptied only if apo made it: absent, an empty
@@ -215,17 +238,28 @@ class Batch {
   BatchSummary summary_;
 };
 
-// index.html and summary.json, from every scan's manifest.
-Status writeBatchPages(const BatchSettings& settings, const std::vector<ScanJob>& jobs, const BatchSummary& summary) {
+// index.html and summary.json, from every scan's manifest, and the files
+// not processed with their reasons.
+Status writeBatchPages(const BatchSettings& settings, const std::vector<ScanJob>& jobs,
+                       const std::vector<NotProcessed>& others, const BatchSummary& summary) {
   std::vector<BatchRow> rows;
   for (const ScanJob& job : jobs) {
     const std::optional<Json> found = manifest::read(job.outDir);
     rows.push_back({job.relative, found ? nlohmann::json::parse(found->dump()) : nlohmann::json::object()});
   }
+  nlohmann::json notProcessed = nlohmann::json::array();
+  for (const NotProcessed& other : others) {
+    rows.push_back({other.relative, {{"status", "not_processed"},
+                                     {"input", {{"name", fs::path(other.relative).filename().string()}}},
+                                     {"reason", other.reason}}});
+    notProcessed.push_back({{"file", other.relative}, {"reason", other.reason}});
+  }
   const nlohmann::json summaryJson = {{"scans", summary.scans},
                                       {"succeeded", summary.succeeded},
                                       {"failed", summary.failed},
                                       {"skipped_up_to_date", summary.upToDate},
+                                      {"not_processed", summary.notProcessed},
+                                      {"not_processed_files", notProcessed},
                                       {"seconds", summary.seconds}};
   APO_RETURN_IF_ERROR(writeFileAtomically(settings.outDir / "index.html", batchIndexHtml(rows, summaryJson)));
   return writeFileAtomically(settings.outDir / "summary.json", summaryJson.dump(2) + "\n");
@@ -238,17 +272,21 @@ Result<BatchSummary> runBatch(const BatchSettings& settings) {
   APO_RETURN_IF_ERROR(validateRunOptions(settings.options));
   auto lock = OutputLock::take(settings.outDir);
   if (!lock) return lock.error();
-  auto jobs = findScans(settings.scanDir, settings.outDir);
-  if (!jobs) return jobs.error();
-  if (jobs->empty())
-    return badInput("{}: no scans found (extensions: {})", settings.scanDir.string(), scanExtensionList());
-  Batch batch(settings, std::move(jobs).value());
+  auto found = findScans(settings.scanDir, settings.outDir);
+  if (!found) return found.error();
+  for (const NotProcessed& other : found->others) spdlog::warn("batch: {} not processed: {}", other.relative, other.reason);
+  if (found->scans.empty())
+    return badInput("{}: no scans found (extensions: {}){}", settings.scanDir.string(), scanExtensionList(),
+                    found->others.empty() ? "" : fmt::format("; {} other files not processed", found->others.size()));
+  Batch batch(settings, std::move(found->scans));
   APO_RETURN_IF_ERROR(batch.run());
   BatchSummary& summary = batch.summary();
+  summary.notProcessed = found->others.size();
   summary.seconds = stopwatch.seconds();
-  APO_RETURN_IF_ERROR(writeBatchPages(settings, batch.jobs(), summary));
-  spdlog::info("batch: {} succeeded, {} failed, {} up to date in {:.1f} s -> {}", summary.succeeded, summary.failed,
-               summary.upToDate, summary.seconds, (settings.outDir / "index.html").string());
+  APO_RETURN_IF_ERROR(writeBatchPages(settings, batch.jobs(), found->others, summary));
+  spdlog::info("batch: {} succeeded, {} failed, {} up to date, {} files not processed in {:.1f} s -> {}",
+               summary.succeeded, summary.failed, summary.upToDate, summary.notProcessed, summary.seconds,
+               (settings.outDir / "index.html").string());
   return summary;
 }
 

@@ -98,15 +98,17 @@ struct BatchSettings {
 
 struct BatchSummary {
   std::uint64_t scans = 0, succeeded = 0, failed = 0, upToDate = 0;
+  std::uint64_t notProcessed = 0;  // files under scanDir that are not scans apo reads
   double seconds = 0.0;
 };
 
 // `apo run` on every scan under scanDir (by extension, recursively, sorted by
 // path) in its own process, into outDir/<path under scanDir>/, skipping the
 // scans whose manifest records success for the same input, options and tool
-// version; then outDir/index.html and summary.json. BadInput when scanDir
-// holds no scan; Usage when another batch holds outDir. A failed scan is
-// counted, never an error.
+// version; then outDir/index.html and summary.json. Every other file under
+// scanDir (hidden ones aside) is listed there as not processed, with the
+// reason. BadInput when scanDir holds no scan; Usage when another batch holds
+// outDir. A failed scan is counted, never an error.
 Result<BatchSummary> runBatch(const BatchSettings& settings);
 
 // ---- The stages with their production seams ------------------------------------

@@ -51,8 +51,9 @@ struct BatchRow {
 };
 
 // OUTDIR/index.html of `apo batch`: `summary` ({"scans", "succeeded",
-// "failed", "skipped_up_to_date", "seconds"}) at the top, then one row per
-// scan in the given order: thumbnail (first view with the APO), link to its
+// "failed", "skipped_up_to_date", "not_processed", "seconds"}) at the top,
+// then one row per scan in the given order (a file the batch did not process
+// has the manifest {"status": "not_processed", "input": {"name"}, "reason"}): thumbnail (first view with the APO), link to its
 // report, status (stage and message when it failed), point count, M and m
 // triangles, APO texture bytes, mean angular error of the APO and of the
 // baseline, total seconds.

@@ -812,6 +812,9 @@ std::string indexStatus(const Json& manifest) {
   if (status == "failed")
     return "<span class=\"status-failed\">FAILED</span><div class=\"errmsg\">" + failureHtml(manifest, true) + "</div>";
   if (status == "running") return "<span class=\"status-running\">did not finish</span>";
+  if (status == "not_processed")
+    return "<span class=\"status-skipped\">not processed</span><div class=\"errmsg\">" +
+           escaped(textAt(&manifest, {"reason"})) + "</div>";
   if (!manifest.is_object() || manifest.empty()) return "<span class=\"status-unknown\">no manifest</span>";
   return "<span class=\"status-unknown\">" + (status.empty() ? std::string("unknown") : htmlEscape(status)) + "</span>";
 }
@@ -822,7 +825,9 @@ std::string indexRow(const BatchRow& scan) {
   std::string dir = scan.relativeDir;
   while (!dir.empty() && dir.back() == '/') dir.pop_back();
   const std::string base = dir.empty() ? std::string() : dir + "/";
-  std::string html = status == "failed" || status == "running" || manifest.empty() ? "<tr class=\"failed\">" : "<tr>";
+  std::string html =
+      status == "failed" || status == "running" || status == "not_processed" || manifest.empty() ? "<tr class=\"failed\">"
+                                                                                                  : "<tr>";
 
   // Thumbnail
   const Json* render = results(manifest, "render");
@@ -837,7 +842,9 @@ std::string indexRow(const BatchRow& scan) {
   // Name and link
   const bool hasReport = textAt(&manifest, {"files", "report"}).has_value() || status == "succeeded";
   const std::string name = dir.empty() || dir == "." ? scanName(manifest) : dir;
-  if (hasReport)
+  if (status == "not_processed")
+    html += "<td>" + htmlEscape(name) + "</td>";  // nothing was written for it
+  else if (hasReport)
     html += "<td><a href=\"" + htmlEscape(urlPathEscape(base + "report.html")) + "\">" + htmlEscape(name) + "</a></td>";
   else
     html += "<td>" + htmlEscape(name) + " <a class=\"meta\" href=\"" + htmlEscape(urlPathEscape(base + "manifest.json")) +
@@ -921,10 +928,14 @@ std::string batchIndexHtml(const std::vector<BatchRow>& rows, const nlohmann::js
     std::string html = pageStart("apo batch: " + count(numberAt(&summary, {"scans"})) + " scans");
     html += "<header>\n<h1>apo batch</h1>\n";
     const std::optional<double> failed = numberAt(&summary, {"failed"});
-    html += fmt::format("<div class=\"banner {}\">{} scans: {} succeeded, {} failed, {} up to date (not redone) &middot; {}</div>\n",
-                        failed && *failed > 0.0 ? "bad" : "ok", count(numberAt(&summary, {"scans"})),
+    const std::optional<double> notProcessed = numberAt(&summary, {"not_processed"});
+    const bool bad = (failed && *failed > 0.0) || (notProcessed && *notProcessed > 0.0);
+    html += fmt::format("<div class=\"banner {}\">{} scans: {} succeeded, {} failed, {} up to date (not redone){} &middot; {}</div>\n",
+                        bad ? "bad" : "ok", count(numberAt(&summary, {"scans"})),
                         count(numberAt(&summary, {"succeeded"})), count(failed),
-                        count(numberAt(&summary, {"skipped_up_to_date"})), seconds(numberAt(&summary, {"seconds"})));
+                        count(numberAt(&summary, {"skipped_up_to_date"})),
+                        notProcessed && *notProcessed > 0.0 ? "; " + count(notProcessed) + " files not processed" : "",
+                        seconds(numberAt(&summary, {"seconds"})));
     html += "</header>\n<table class=\"index\">\n<thead><tr><th></th><th>scan</th><th>status</th><th class=\"n\">points</th>"
             "<th class=\"n\">M triangles</th><th class=\"n\">m triangles</th><th class=\"n\">APO texture</th>"
             "<th class=\"n\">mean angular error<br>APO / m alone</th><th class=\"n\">time</th></tr></thead>\n<tbody>\n";

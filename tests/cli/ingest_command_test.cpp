@@ -83,7 +83,11 @@ TEST(IngestCommand, NonNumericTokenInAscii) { expectRejected("word.xyz", "0 0 0\
 
 TEST(IngestCommand, WrongMagic) { expectRejected("magic.ply", "plx\nformat ascii 1.0\n", "magic"); }
 
-TEST(IngestCommand, UnsupportedExtension) { expectRejected("scan.las", "LASF", "unsupported extension"); }
+TEST(IngestCommand, UnsupportedExtension) { expectRejected("scan.dat", "LASF", "unsupported extension"); }
+
+TEST(IngestCommand, KnownFormatWithoutReaderSaysWhatToExport) {
+  expectRejected("scan.e57", "ASTM-E57", "E57 (ASTM E2807) files have no reader in apo: export the scan as PLY, LAS or XYZ");
+}
 
 TEST(IngestCommand, DirectoryAsInput) {
   const fs::path dir = test::freshTempDir();

@@ -228,6 +228,56 @@ TEST(PlyReader, AsciiUnknownElementBeforeAndAfterFaces) {
   EXPECT_EQ(readPly(meshWithEdges(false, "ascii") + vertices + faces + edges).triangles, kQuadTriangles);
 }
 
+TEST(PlyReader, UnknownElementsAndPropertiesAreNotedNotSilentlyDropped) {
+  const std::string vertices = "0 0 0\n1 0 0\n1 1 0\n0 1 0\n";
+  const Scan scan = readPly(meshWithEdges(true, "ascii") + vertices + "0 1 0\n1 2 2 5 6\n" + "3 0 1 2\n3 0 2 3\n");
+  EXPECT_THAT(scan.readNotes, testing::Contains("element 'edge' (2 items) skipped: apo reads vertices, faces and tristrips"));
+  const Scan withQuality = readPly(
+      "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\n"
+      "property float quality\nproperty float u\nend_header\n1 2 3 0.5 0.25\n");
+  EXPECT_THAT(withQuality.readNotes, testing::Contains("vertex properties not kept: quality, u"));
+}
+
+// The winding of a strip alternates; the reader keeps every triangle's
+// orientation the strip's: (0 1 2), (2 1 3), (2 3 4), ...
+TEST(PlyReader, TristripsBecomeTrianglesWithTheStripsWinding) {
+  const std::string header =
+      "ply\nformat {} 1.0\nelement vertex 6\nproperty float x\nproperty float y\nproperty float z\n"
+      "element tristrips 1\nproperty list int int vertex_indices\nend_header\n";
+  const std::string vertices = "0 0 0\n0 1 0\n1 0 0\n1 1 0\n2 0 0\n2 1 0\n";
+  // One strip of four triangles, a restart, a strip of one, and a joining
+  // triangle with a repeated vertex (5 5 4) that is counted, not kept.
+  const Scan ascii = readPly(fmt::format(fmt::runtime(header), "ascii") + vertices + "10 0 1 2 3 4 -1 3 5 4 5\n");
+  EXPECT_EQ(ascii.triangles, (std::vector<Triangle>{{0, 1, 2}, {2, 1, 3}, {2, 3, 4}, {3, 5, 4}}));
+  EXPECT_THAT(ascii.readNotes, testing::Contains(HasSubstr("1 strips read as 4 triangles (1 strip-joining")));
+  // Every triangle faces +z, like the strip: (b - a) x (c - a) . z < 0 for
+  // this layout's clockwise order, the same for all.
+  for (const Triangle& t : ascii.triangles) {
+    const auto& p = ascii.points.positions;
+    EXPECT_LT((p[t[1]] - p[t[0]]).cross(p[t[2]] - p[t[0]]).z(), 0.0f);
+  }
+  BinaryBytes binary(false);
+  for (float v : {0.f, 0.f, 0.f, 0.f, 1.f, 0.f, 1.f, 0.f, 0.f, 1.f, 1.f, 0.f, 2.f, 0.f, 0.f, 2.f, 1.f, 0.f}) binary.put(v);
+  binary.put<std::int32_t>(4).put<std::int32_t>(0).put<std::int32_t>(1).put<std::int32_t>(2).put<std::int32_t>(3);
+  EXPECT_EQ(readPly(fmt::format(fmt::runtime(header), "binary_little_endian") + binary.str()).triangles,
+            (std::vector<Triangle>{{0, 1, 2}, {2, 1, 3}}));
+  EXPECT_THAT(failureOf(fmt::format(fmt::runtime(header), "ascii") + vertices + "3 0 1 9\n"), HasSubstr("vertex index 9 out of range"));
+}
+
+TEST(PlyReader, LidarAttributesAndApoOriginComeBack) {
+  const Scan scan = readPly(
+      "ply\nformat ascii 1.0\ncomment apo_origin 512000 5403000.5 -2\nelement vertex 2\nproperty float x\n"
+      "property float y\nproperty float z\nproperty uchar classification\nproperty uchar return_number\n"
+      "property uchar number_of_returns\nend_header\n1 2 3 2 1 2\n4 5 6 6 2 2\n");
+  EXPECT_EQ(scan.origin, (std::array<double, 3>{512000.0, 5403000.5, -2.0}));
+  EXPECT_EQ(scan.points.classifications, (std::vector<std::uint8_t>{2, 6}));
+  EXPECT_EQ(scan.points.returnNumbers, (std::vector<std::uint8_t>{1, 2}));
+  EXPECT_EQ(scan.points.returnCounts, (std::vector<std::uint8_t>{2, 2}));
+  EXPECT_THAT(failureOf("ply\nformat ascii 1.0\ncomment apo_origin 1 nan 3\nelement vertex 1\nproperty float x\n"
+                        "property float y\nproperty float z\nend_header\n1 2 3\n"),
+              testing::StartsWith("line 3: apo_origin coordinate 'nan'"));
+}
+
 TEST(PlyReader, BinaryUnknownElementBeforeAndAfterFaces) {
   BinaryBytes vertices(false);
   for (float v : {0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 1.f, 1.f, 0.f, 0.f, 1.f, 0.f}) vertices.put(v);

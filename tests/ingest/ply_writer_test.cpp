@@ -59,7 +59,11 @@ void expectSameScan(const Scan& expected, const Scan& actual) {
   EXPECT_TRUE(sameBits(expected.points.normals, actual.points.normals));
   EXPECT_EQ(expected.points.colors, actual.points.colors);
   EXPECT_EQ(expected.points.intensities, actual.points.intensities);
+  EXPECT_EQ(expected.points.classifications, actual.points.classifications);
+  EXPECT_EQ(expected.points.returnNumbers, actual.points.returnNumbers);
+  EXPECT_EQ(expected.points.returnCounts, actual.points.returnCounts);
   EXPECT_EQ(expected.triangles, actual.triangles);
+  EXPECT_EQ(expected.origin, actual.origin);
 }
 
 class PlyRoundTrip : public ::testing::TestWithParam<PlyEncoding> {};
@@ -71,6 +75,17 @@ TEST_P(PlyRoundTrip, PositionsOnly) {
 
 TEST_P(PlyRoundTrip, PointCloudWithAllAttributes) {
   const Scan scan = pointCloud(true, true, true);
+  expectSameScan(scan, readPly(encodePly(scan, GetParam())));
+}
+
+TEST_P(PlyRoundTrip, LidarAttributesAndTheLocalFrame) {
+  Scan scan = pointCloud(false, true, true);
+  for (std::size_t i = 0; i < scan.points.size(); ++i) {
+    scan.points.classifications.push_back(static_cast<std::uint8_t>(i % 7));
+    scan.points.returnNumbers.push_back(static_cast<std::uint8_t>(1 + i % 3));
+    scan.points.returnCounts.push_back(3);
+  }
+  scan.origin = {512049.0, 5403050.25, -0.1};
   expectSameScan(scan, readPly(encodePly(scan, GetParam())));
 }
 

@@ -22,13 +22,13 @@ TEST(FormatFromExtension, KnowsEveryFormatCaseInsensitively) {
 }
 
 TEST(ReadScan, UnsupportedExtensionNamesFileAndExtension) {
-  const fs::path path = test::freshTempDir() / "scan.las";
+  const fs::path path = test::freshTempDir() / "scan.xyzw";
   test::writeBytes(path, "whatever");
   auto scan = readScan(path);
   ASSERT_FALSE(scan.ok());
   EXPECT_EQ(scan.error().kind, ErrorKind::BadInput);
   EXPECT_THAT(scan.error().message, HasSubstr(path.string()));
-  EXPECT_THAT(scan.error().message, HasSubstr("unsupported extension '.las'"));
+  EXPECT_THAT(scan.error().message, HasSubstr("unsupported extension '.xyzw'"));
 }
 
 TEST(ReadScan, DirectoryNamedLikeAScanIsRefused) {
