@@ -9,7 +9,7 @@ PACKAGES=(
   build-essential cmake pkg-config git ca-certificates
   # geometry and scan processing
   libpcl-dev libflann-dev libcgal-dev libembree-dev libglm-dev libopen3d-dev
-  libeigen3-dev libtbb-dev
+  libeigen3-dev libtbb-dev libmeshoptimizer-dev
   # headless rendering
   libosmesa6-dev
   # command line, formats, logging, hashing

@@ -228,6 +228,7 @@ Result<Bake> bakeWith(const DetailSurface& detail, const CoarseSurface& coarseSu
                            static_cast<std::uint8_t>(options.maxDepth));
   if (!texture) return texture.error();
   bake.texture = std::move(texture).value();
+  bake.texture.origin = coarse.origin;  // m's local frame, for readers of the file
   report.seconds.encode = phase.seconds();
 
   bake.octree = std::move(built.octree);

@@ -34,10 +34,12 @@ void addGroup(CLI::App& app, const std::string& group, Add&& add) {
 
 void IngestArguments::apply() {
   if (sensor.size() == 3) options.sensorPosition = Vec3f(sensor[0], sensor[1], sensor[2]);
+  options.orientation = orient == "mst" ? OrientationMethod::CgalMst : OrientationMethod::Propagation;
 }
 
 void SimplifyArguments::apply() {
   options.policy = policy == "lt" ? SimplifyPolicy::LindstromTurk : SimplifyPolicy::GarlandHeckbert;
+  options.quickFirstPass = !noQuickPass;
 }
 
 void RenderArguments::apply() {
@@ -58,6 +60,12 @@ void addIngestOptions(CLI::App& app, IngestArguments& arguments) {
   app.add_flag("--force-normals", o.forceNormalEstimation, "Re-estimate normals even when the file has them");
   app.add_option("--sensor", arguments.sensor, "Scanner position X Y Z: estimated normals face it (overrides the file's viewpoint)")
       ->expected(3);
+  app.add_flag("!--keep-winding", o.orientFaces,
+               "Keep mesh faces as wound in the file (by default pieces wound inward are flipped)");
+  app.add_option("--orient", arguments.orient,
+                 "Orientation of estimated normals without a sensor: propagation (k-NN graph, fast) or mst (CGAL's)")
+      ->check(CLI::IsMember({"propagation", "mst"}))
+      ->capture_default_str();
 }
 
 void addReconstructOptions(CLI::App& app, ReconstructOptions& o) {
@@ -99,6 +107,8 @@ void addSimplifyOptions(CLI::App& app, SimplifyArguments& arguments) {
   app.add_option("--policy", arguments.policy, "gh: Garland-Heckbert quadrics (the paper's), lt: Lindstrom-Turk")
       ->check(CLI::IsMember({"gh", "lt"}))
       ->capture_default_str();
+  app.add_flag("--no-quick-pass", arguments.noQuickPass,
+               "CGAL's collapses only, without meshoptimizer's first pass on meshes above 200,000 faces");
 }
 
 void addBakeOptions(CLI::App& app, BakeArguments& arguments) {
@@ -144,6 +154,9 @@ void addStageOptionGroups(CLI::App& app, StageArguments& arguments) {
                  "points (the scan's points with their normals)")
       ->check(CLI::IsMember({"mesh", "points"}))
       ->capture_default_str();
+  app.add_flag("--keep-georeference", arguments.keepGeoreference,
+               "Write M.ply and m.ply in the scan's own (world) coordinates, in double, instead of its local frame "
+               "(a scan far from zero is processed in a local frame whose origin the outputs record)");
   addGroup(app, "Ingest", [&] { addIngestOptions(app, arguments.ingest); });
   addGroup(app, "Reconstruct", [&] { addReconstructOptions(app, arguments.reconstruct); });
   addGroup(app, "Simplify", [&] { addSimplifyOptions(app, arguments.simplify); });
@@ -159,6 +172,7 @@ RunOptions runOptionsFrom(StageArguments arguments) {
   arguments.render.apply();
   RunOptions options;
   options.detailSource = arguments.detailSource == "points" ? DetailSource::Points : DetailSource::Mesh;
+  options.keepGeoreference = arguments.keepGeoreference;
   options.ingest = arguments.ingest.options;
   options.reconstruct = arguments.reconstruct;
   options.simplify = arguments.simplify.options;

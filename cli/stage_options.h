@@ -21,12 +21,14 @@ namespace apo::cli {
 struct IngestArguments {
   IngestOptions options;
   std::vector<float> sensor;  // X Y Z, or empty
+  std::string orient = "propagation";
   void apply();
 };
 
 struct SimplifyArguments {
   SimplifyOptions options;
   std::string policy = "gh";
+  bool noQuickPass = false;
   void apply();
 };
 
@@ -58,6 +60,7 @@ void addRenderOptions(CLI::App& app, RenderArguments& arguments);
 // The stage options of `apo run` and `apo batch`: one group per stage in
 // --help, --detail-source and --config (TOML).
 struct StageArguments {
+  bool keepGeoreference = false;
   std::string detailSource = "mesh";
   IngestArguments ingest;
   ReconstructOptions reconstruct;

@@ -1,5 +1,6 @@
-// The .apo file, format version 1 (docs/apo-format.md): a 128-byte
-// little-endian header, then the texture's texels. The reader trusts nothing:
+// The .apo file, format versions 1 and 2 (docs/apo-format.md): a 128-byte
+// little-endian header (160 bytes in version 2, which adds the scan's local
+// frame origin), then the texture's texels. The reader trusts nothing:
 // every header field is checked, sizes against the actual file size before
 // anything is allocated for them, the payload against its SHA-256, and the
 // texel structure by decodeApo, so a corrupt file is a BadInput naming the
@@ -55,15 +56,30 @@ constexpr Field kPayloadSize{88, 8, "payload size"};
 constexpr Field kChecksum{96, 32, "payload SHA-256"};
 constexpr std::size_t kHeaderBytes = 128;
 static_assert(kChecksum.offset + kChecksum.size == kHeaderBytes);
-constexpr std::array<Field, 19> kFields = {kMagic,      kVersion,     kByteOrder,    kHeaderSize,   kScale,
+// Version 2's extension: the origin of the scan's local frame (file
+// coordinates = origin + world coordinates of the transform above), then
+// reserved zero bytes.
+constexpr Field kOriginX{128, 8, "origin x"};
+constexpr Field kOriginY{136, 8, "origin y"};
+constexpr Field kOriginZ{144, 8, "origin z"};
+constexpr Field kReserved{152, 8, "reserved"};
+constexpr std::size_t kHeaderBytesV2 = 160;
+static_assert(kReserved.offset + kReserved.size == kHeaderBytesV2);
+constexpr std::array<Field, 23> kFields = {kMagic,      kVersion,     kByteOrder,    kHeaderSize,   kScale,
                                            kOffsetX,    kOffsetY,     kOffsetZ,      kCoarseDepth,  kMaxDepth,
                                            kCompleteDepth, kEncoding, kWidth,        kHeight,       kLeafNodes,
-                                           kInternalNodes, kUsedTexels, kPayloadSize, kChecksum};
+                                           kInternalNodes, kUsedTexels, kPayloadSize, kChecksum,   kOriginX,
+                                           kOriginY,    kOriginZ,     kReserved};
 
 // 0x89 catches 7-bit transfers, CR LF and LF catch line-ending conversions,
 // 0x1A stops a DOS `type` (the PNG signature's reasoning).
 constexpr std::array<std::uint8_t, 8> kMagicBytes = {0x89, 'A', 'P', 'O', '\r', '\n', 0x1A, '\n'};
+// Version 1 is written when the origin is zero (the same bytes as before
+// version 2 existed), version 2 otherwise; both are read.
 constexpr std::uint32_t kFormatVersion = 1;
+constexpr std::uint32_t kFormatVersionWithOrigin = 2;
+
+std::uint32_t headerBytesOf(std::uint32_t version) { return version == kFormatVersionWithOrigin ? kHeaderBytesV2 : kHeaderBytes; }
 // Stored little-endian as 04 03 02 01; any other order means a writer that
 // ignored the byte order.
 constexpr std::uint32_t kByteOrderMark = 0x01020304;
@@ -78,6 +94,8 @@ struct Header {
   std::uint32_t width = 0, height = 0;
   std::uint64_t leafNodes = 0, internalNodes = 0, usedTexels = 0, payloadSize = 0;
   std::array<std::uint8_t, 32> checksum{};
+  std::array<double, 3> origin{};  // version 2
+  std::uint64_t reserved = 0;      // version 2
 };
 
 template <class... Args>
@@ -131,9 +149,10 @@ std::array<std::uint8_t, 32> checksumOf(const std::vector<std::uint8_t>& payload
 Header headerOf(const ApoTexture& texture) {
   Header header;
   header.magic = kMagicBytes;
-  header.version = kFormatVersion;
+  header.origin = texture.origin;
+  header.version = header.origin == std::array<double, 3>{} ? kFormatVersion : kFormatVersionWithOrigin;
   header.byteOrderMark = kByteOrderMark;
-  header.headerSize = kHeaderBytes;
+  header.headerSize = headerBytesOf(header.version);
   header.scale = texture.transform.scale;
   header.offset = texture.transform.offset;
   header.coarseDepth = texture.coarseDepth;
@@ -171,14 +190,20 @@ std::string headerBytes(const Header& header) {
   out.integer(kUsedTexels, header.usedTexels);
   out.integer(kPayloadSize, header.payloadSize);
   out.raw(kChecksum, header.checksum);
-  APO_CHECK_OP(out.bytes().size(), ==, kHeaderBytes);
+  if (header.version == kFormatVersionWithOrigin) {
+    out.float64(kOriginX, header.origin[0]);
+    out.float64(kOriginY, header.origin[1]);
+    out.float64(kOriginZ, header.origin[2]);
+    out.integer(kReserved, header.reserved);
+  }
+  APO_CHECK_OP(out.bytes().size(), ==, header.headerSize);
   return out.bytes();
 }
 
 // ---- Reading ------------------------------------------------------------------
 
 // Fields read from the bytes of the header the file has, which may be fewer
-// than 128: reading past them names the field the file ends in.
+// than the header's size: reading past them names the field the file ends in.
 class HeaderReader {
  public:
   HeaderReader(std::string_view bytes, std::uint64_t fileSize) : bytes_(bytes), fileSize_(fileSize) {}
@@ -207,8 +232,7 @@ class HeaderReader {
  private:
   Status available(const Field& field) const {
     if (field.offset + field.size > bytes_.size())
-      return fieldError(field, "the file ends after {} bytes, inside the {}-byte header (truncated file)", fileSize_,
-                        kHeaderBytes);
+      return fieldError(field, "the file ends after {} bytes, inside the header (truncated file)", fileSize_);
     return okStatus();
   }
   std::string_view bytes_;
@@ -246,19 +270,36 @@ Result<Header> parseHeader(std::string_view bytes, std::uint64_t fileSize) {
   APO_RETURN_IF_ERROR(in.integer(kUsedTexels, header.usedTexels));
   APO_RETURN_IF_ERROR(in.integer(kPayloadSize, header.payloadSize));
   APO_RETURN_IF_ERROR(in.raw(kChecksum, header.checksum));
+  if (header.version == kFormatVersionWithOrigin) {
+    APO_RETURN_IF_ERROR(in.float64(kOriginX, header.origin[0]));
+    APO_RETURN_IF_ERROR(in.float64(kOriginY, header.origin[1]));
+    APO_RETURN_IF_ERROR(in.float64(kOriginZ, header.origin[2]));
+    APO_RETURN_IF_ERROR(in.integer(kReserved, header.reserved));
+  }
   return header;
 }
 
 Status checkIdentity(const Header& header) {
   APO_RETURN_IF_ERROR(checkMagic(header));
-  if (header.version != kFormatVersion)
-    return fieldError(kVersion, "expected {} (the only version this reader knows), found {}", kFormatVersion,
-                      header.version);
+  if (header.version != kFormatVersion && header.version != kFormatVersionWithOrigin)
+    return fieldError(kVersion, "expected {} or {} (the versions this reader knows), found {}", kFormatVersion,
+                      kFormatVersionWithOrigin, header.version);
   if (header.byteOrderMark != kByteOrderMark)
     return fieldError(kByteOrder, "expected {:#010x} stored as 04 03 02 01, found {:#010x}", kByteOrderMark,
                       header.byteOrderMark);
-  if (header.headerSize != kHeaderBytes)
-    return fieldError(kHeaderSize, "expected {} for format version 1, found {}", kHeaderBytes, header.headerSize);
+  if (header.headerSize != headerBytesOf(header.version))
+    return fieldError(kHeaderSize, "expected {} for format version {}, found {}", headerBytesOf(header.version),
+                      header.version, header.headerSize);
+  return okStatus();
+}
+
+Status checkOrigin(const Header& header) {
+  if (header.version != kFormatVersionWithOrigin) return okStatus();
+  const Field* fields[] = {&kOriginX, &kOriginY, &kOriginZ};
+  for (int axis = 0; axis < 3; ++axis)
+    if (!std::isfinite(header.origin[axis]))
+      return fieldError(*fields[axis], "expected a finite number, found {}", header.origin[axis]);
+  if (header.reserved != 0) return fieldError(kReserved, "expected 0, found {:#x}", header.reserved);
   return okStatus();
 }
 
@@ -295,10 +336,10 @@ Status checkSizes(const Header& header, std::uint64_t fileSize) {
   if (header.payloadSize != 4 * texels)
     return fieldError(kPayloadSize, "expected width x height x 4 = {} x {} x 4 = {}, found {}", header.width,
                       header.height, 4 * texels, header.payloadSize);
-  if (header.payloadSize != fileSize - kHeaderBytes)
+  if (fileSize < header.headerSize || header.payloadSize != fileSize - header.headerSize)
     return fieldError(kPayloadSize, "the header claims {} bytes of texels, but the file has {} bytes after the "
                       "header (truncated or padded file)",
-                      header.payloadSize, fileSize - kHeaderBytes);
+                      header.payloadSize, fileSize < header.headerSize ? 0 : fileSize - header.headerSize);
   const std::uint64_t gridTexels = std::uint64_t{1} << (3 * header.completeDepth);
   if (header.usedTexels < gridTexels || header.usedTexels > texels)
     return fieldError(kUsedTexels, "expected between the {} grid texels and the {} texels of the texture, found {}",
@@ -318,6 +359,7 @@ Status checkSizes(const Header& header, std::uint64_t fileSize) {
 Status checkHeader(const Header& header, std::uint64_t fileSize) {
   APO_RETURN_IF_ERROR(checkIdentity(header));
   APO_RETURN_IF_ERROR(checkTransform(header));
+  APO_RETURN_IF_ERROR(checkOrigin(header));
   APO_RETURN_IF_ERROR(checkSettings(header));
   return checkSizes(header, fileSize);
 }
@@ -335,12 +377,13 @@ ApoTexture textureOf(const Header& header, std::vector<std::uint8_t> texels) {
   texture.leafNodes = header.leafNodes;
   texture.internalNodes = header.internalNodes;
   texture.texels = std::move(texels);
+  texture.origin = header.origin;
   return texture;
 }
 
 // The file's header and its checked payload; errors without the path.
 Result<ApoTexture> readTexture(std::istream& in, std::uint64_t fileSize) {
-  std::string head(std::min<std::uint64_t>(fileSize, kHeaderBytes), '\0');
+  std::string head(std::min<std::uint64_t>(fileSize, kHeaderBytesV2), '\0');
   in.read(head.data(), static_cast<std::streamsize>(head.size()));
   if (static_cast<std::size_t>(in.gcount()) != head.size())
     return badInput("read {} of the first {} bytes", in.gcount(), head.size());
@@ -348,11 +391,13 @@ Result<ApoTexture> readTexture(std::istream& in, std::uint64_t fileSize) {
   if (!header.ok()) return header.error();
   APO_RETURN_IF_ERROR(checkHeader(*header, fileSize));
 
-  // payloadSize now equals the bytes the file has.
+  // payloadSize now equals the bytes the file has after its header.
+  in.clear();
+  in.seekg(static_cast<std::streamoff>(header->headerSize));
   std::vector<std::uint8_t> texels(header->payloadSize);
   in.read(reinterpret_cast<char*>(texels.data()), static_cast<std::streamsize>(texels.size()));
   if (static_cast<std::uint64_t>(in.gcount()) != texels.size())
-    return badInput("byte {}: read {} of the {} bytes of texels (the file changed while read?)", kHeaderBytes,
+    return badInput("byte {}: read {} of the {} bytes of texels (the file changed while read?)", header->headerSize,
                     in.gcount(), texels.size());
   const std::array<std::uint8_t, 32> checksum = checksumOf(texels);
   if (checksum != header->checksum)
@@ -371,7 +416,7 @@ Result<ApoTexture> readTexture(std::istream& in, std::uint64_t fileSize) {
 Status writeApoFile(const fs::path& path, const ApoTexture& texture) {
   const Header header = headerOf(texture);
   // Never write a file the reader would refuse.
-  if (Status valid = checkHeader(header, kHeaderBytes + texture.texels.size()); !valid.ok())
+  if (Status valid = checkHeader(header, header.headerSize + texture.texels.size()); !valid.ok())
     return internalError("{}: refusing to write an inconsistent texture: {}", path.string(), valid.error().message);
   const std::string head = headerBytes(header);
   return writeFileAtomically(path, [&](std::ostream& out) {
@@ -399,15 +444,16 @@ Result<ApoTexture> readApoFile(const fs::path& path) {
 }
 
 std::string describeApoFileByte(std::string_view bytes, std::uint64_t offset) {
-  if (offset < kHeaderBytes) {
+  const Result<Header> header = parseHeader(bytes.substr(0, std::min<std::size_t>(bytes.size(), kHeaderBytesV2)), bytes.size());
+  const std::uint64_t headerSize = header.ok() ? headerBytesOf(header->version) : kHeaderBytes;
+  if (offset < headerSize) {
     for (const Field& field : kFields)
       if (offset >= field.offset && offset < field.offset + field.size)
         return fmt::format("the header's {} (bytes {} to {})", field.name, field.offset, field.offset + field.size - 1);
   }
-  const std::uint64_t texel = (offset - kHeaderBytes) / 4;
-  const char channel = "RGBA"[(offset - kHeaderBytes) % 4];
+  const std::uint64_t texel = (offset - headerSize) / 4;
+  const char channel = "RGBA"[(offset - headerSize) % 4];
   const std::string where = fmt::format("texel {}, channel {}", texel, channel);
-  const Result<Header> header = parseHeader(bytes.substr(0, std::min<std::size_t>(bytes.size(), kHeaderBytes)), bytes.size());
   if (!header.ok() || header->completeDepth > texel::kMaxCompleteDepth) return where;
   const std::uint64_t gridTexels = std::uint64_t{1} << (3 * header->completeDepth);
   if (texel < gridTexels) return where + fmt::format(" (a grid entry: the grid has {} texels)", gridTexels);

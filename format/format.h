@@ -79,6 +79,10 @@ struct ApoTexture {
   std::uint32_t width = 0, height = 0;
   std::uint64_t leafNodes = 0, internalNodes = 0;  // encoded nodes (below the grid)
   std::vector<std::uint8_t> texels;                // width * height * 4 bytes
+  // The scan's local frame (Scan::origin): the file's coordinates are origin
+  // + the world coordinates `transform` maps. Zero for most scans; stored in
+  // .apo version 2.
+  std::array<double, 3> origin = {0.0, 0.0, 0.0};
 
   std::uint64_t gridTexels() const { return std::uint64_t{1} << (3 * completeDepth); }
   std::uint64_t usedTexels() const;  // grid + nodes; the rest of the last row is zero

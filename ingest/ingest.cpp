@@ -1,11 +1,13 @@
 // The ingest pipeline: read, validate, clean, normals; and its report.
 #include "ingest/ingest.h"
 
+#include "adapters/embree/embree_ray_caster.h"
 #include "adapters/pcl/pcl_points.h"
 #include "core/file_io.h"
 #include "core/mesh_edit.h"
 #include "core/timing.h"
 #include "ingest/cleaning.h"
+#include "ingest/face_orientation.h"
 #include "ingest/normals.h"
 
 #include <fmt/format.h>
@@ -23,6 +25,10 @@ namespace {
 constexpr std::size_t kMinPointsForNormals = 4;
 
 }  // namespace
+
+std::string orientationMethodName(OrientationMethod method) {
+  return method == OrientationMethod::CgalMst ? "mst" : "propagation";
+}
 
 Status validateIngestOptions(const IngestOptions& options) {
   if (options.outlierNeighbours < 1) return usageError("--outlier-k must be at least 1, got {}", options.outlierNeighbours);
@@ -66,6 +72,24 @@ void cleanMesh(Scan& scan, const IngestOptions& options, IngestReport& report) {
   runStep(report, "drop_degenerate_triangles", [&] { return dropDegenerateTriangles(scan); });
   runStep(report, "drop_duplicate_triangles", [&] { return cleaning::dropDuplicateTriangles(scan); });
   runStep(report, "drop_unreferenced_vertices", [&] { return dropUnreferencedVertices(scan); });
+}
+
+// Pieces wound inward turned outward; the file's normals, if any, then follow
+// the faces (they were written for the winding that was wrong, or disagree).
+Status orientMeshFaces(Scan& scan, IngestReport& report) {
+  Stopwatch watch;
+  auto caster = makeEmbreeMeshCaster(scan);
+  if (!caster) return caster.error();
+  const faces::FaceOrientation found = faces::orientFacesOutward(scan, **caster);
+  report.faceOrientation = {true,          found.components,   found.flippedComponents, found.flippedTriangles,
+                            found.byVolume, found.byVisibility, found.undecided};
+  report.steps.push_back({"orient_faces_outward", 0, watch.seconds()});
+  if (found.flippedTriangles > 0) {
+    spdlog::warn("ingest: {} of {} mesh pieces ({} triangles) were wound inward and have been flipped",
+                 found.flippedComponents, found.components, found.flippedTriangles);
+    scan.points.normals.clear();
+  }
+  return okStatus();
 }
 
 void meshNormals(Scan& scan, IngestReport& report) {
@@ -122,7 +146,8 @@ Status pointCloudNormals(Scan& scan, const IngestOptions& options, IngestReport&
     scan.viewpoint->origin = *options.sensorPosition;
   }
   Stopwatch watch;
-  auto oriented = normals::estimateOrientedNormals(scan.points.positions, scan.viewpoint, options.normalNeighbours);
+  auto oriented = normals::estimateOrientedNormals(scan.points.positions, scan.viewpoint, options.normalNeighbours,
+                                                   options.orientation);
   if (!oriented) return oriented.error();
   normals::OrientedNormals& estimated = *oriented;
   scan.points.normals = std::move(estimated.normals);
@@ -182,6 +207,9 @@ Result<IngestResult> ingestScan(const fs::path& path, const IngestOptions& optio
   report.inputSha256 = *sha;
 
   report.isMesh = scan.isMesh();
+  report.origin = scan.origin;
+  report.readNotes = scan.readNotes;
+  for (const std::string& note : scan.readNotes) spdlog::info("ingest: {}: {}", path.string(), note);
   report.pointsIn = scan.points.size();
   report.trianglesIn = scan.triangles.size();
   spdlog::info("ingest: read {} points, {} triangles from {} ({}) in {:.2f} s", report.pointsIn, report.trianglesIn,
@@ -196,6 +224,7 @@ Result<IngestResult> ingestScan(const fs::path& path, const IngestOptions& optio
     cleanMesh(scan, options, report);
     if (!scan.isMesh())
       return badInput("{}: no valid triangle remains after cleaning ({} read)", path.string(), report.trianglesIn);
+    if (options.orientFaces) APO_RETURN_IF_ERROR(orientMeshFaces(scan, report));
     meshNormals(scan, report);
   } else {
     APO_RETURN_IF_ERROR(cleanPointCloud(scan, options, report, path));
@@ -239,6 +268,18 @@ std::string ingestReportJson(const IngestReport& report) {
   } else {
     json["viewpoint"] = nullptr;
   }
+  // The local frame: file coordinates = origin + the coordinates of every
+  // output (docs/ingest.md, "Georeferenced coordinates").
+  json["origin"] = {report.origin[0], report.origin[1], report.origin[2]};
+  json["read_notes"] = report.readNotes;
+  const auto& f = report.faceOrientation;
+  json["face_orientation"] = !f.checked ? nlohmann::ordered_json(nullptr)
+                                        : nlohmann::ordered_json{{"pieces", f.components},
+                                                                 {"flipped_pieces", f.flippedComponents},
+                                                                 {"flipped_triangles", f.flippedTriangles},
+                                                                 {"decided_by_volume", f.byVolume},
+                                                                 {"decided_by_visibility", f.byVisibility},
+                                                                 {"undecided", f.undecided}};
   json["seconds"] = {{"read", report.readSeconds}, {"normals", report.normalSeconds}, {"total", report.totalSeconds}};
   return json.dump(2) + "\n";
 }

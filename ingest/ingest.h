@@ -8,6 +8,7 @@
 #include "core/geometry.h"
 #include "core/ray_caster.h"
 
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <optional>
@@ -39,9 +40,18 @@ Result<Scan> readScan(const std::filesystem::path& path, ScanFormat format);
 
 // Writes a binary little-endian PLY (float x y z [nx ny nz] [uchar red green
 // blue] [float intensity], uchar/int vertex_indices faces), atomically.
-Status writePly(const std::filesystem::path& path, const Scan& scan);
+// Positions are in the scan's local frame with its origin in a comment, or,
+// with `worldCoordinates` (--keep-georeference), origin + position in double.
+Status writePly(const std::filesystem::path& path, const Scan& scan, bool worldCoordinates = false);
 // Writes an ASCII PLY with the same properties (for tests and inspection).
 Status writePlyAscii(const std::filesystem::path& path, const Scan& scan);
+
+// How normals are oriented without a viewpoint: propagation over the k-NN
+// graph (Hoppe's rule on our own graph: a 1M-point scan in seconds), or
+// CGAL's MST orientation (the same rule; about 40 s and 4.5 GiB for that
+// scan), kept for comparison (docs/benchmarks.md).
+enum class OrientationMethod { Propagation, CgalMst };
+std::string orientationMethodName(OrientationMethod method);  // "propagation", "mst"
 
 struct IngestOptions {
   bool mergeDuplicates = true;      // exact duplicate points / vertices merged
@@ -53,6 +63,9 @@ struct IngestOptions {
   int normalNeighbours = 0;         // 0: chosen from the data (see docs/ingest.md)
   bool forceNormalEstimation = false;  // re-estimate even if the file has normals
   std::optional<Vec3f> sensorPosition; // overrides the file's viewpoint for orientation
+  OrientationMethod orientation = OrientationMethod::Propagation;
+  // Mesh pieces wound inward are flipped (docs/ingest.md); false: kept as read.
+  bool orientFaces = true;
 };
 
 // Usage error naming the option when one is out of range.
@@ -75,12 +88,20 @@ struct IngestReport {
   std::vector<CleaningStep> steps;
   Aabb boundingBox;
   std::string normalsSource;      // "read", "estimated", "computed_from_faces"
-  std::string normalOrientation;  // "viewpoint", "mst", "file", "faces"
+  std::string normalOrientation;  // "viewpoint", "propagation", "mst", "file", "faces"
   int normalNeighbours = 0;       // k used when estimated
   std::uint64_t orientationIslands = 0;    // MST passes, one per separate piece
   std::uint64_t orientationLeftovers = 0;  // points oriented by their nearest neighbour
   bool hasViewpoint = false;
   Viewpoint viewpoint;
+  // Meshes: pieces found wound inward and flipped (docs/ingest.md).
+  struct FaceOrientation {
+    bool checked = false;
+    std::uint64_t components = 0, flippedComponents = 0, flippedTriangles = 0;
+    std::uint64_t byVolume = 0, byVisibility = 0, undecided = 0;
+  } faceOrientation;
+  std::array<double, 3> origin = {0.0, 0.0, 0.0};  // Scan::origin: the local frame
+  std::vector<std::string> readNotes;               // what the reader skipped or converted
   double readSeconds = 0.0;
   double normalSeconds = 0.0;
   double totalSeconds = 0.0;

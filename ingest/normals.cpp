@@ -1,6 +1,7 @@
 #include "ingest/normals.h"
 
 #include "adapters/cgal/cgal_jobs.h"
+#include "adapters/flann/flann_search.h"
 #include "adapters/pcl/pcl_points.h"
 
 #include <Eigen/Eigenvalues>
@@ -8,6 +9,8 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <queue>
+#include <tuple>
 
 namespace apo::normals {
 namespace {
@@ -133,6 +136,116 @@ Result<IslandOrientation> orientByIslands(const std::vector<Vec3f>& points, std:
   return result;
 }
 
+// The symmetric k-nearest-neighbour graph in compressed rows: the neighbours
+// of point i are adjacency[offsets[i], offsets[i + 1]), each edge both ways.
+struct Adjacency {
+  std::vector<std::uint64_t> offsets;
+  std::vector<std::uint32_t> adjacency;
+};
+
+Adjacency symmetricGraph(const flann_adapter::NeighbourGraph& graph, std::size_t count) {
+  Adjacency result;
+  result.offsets.assign(count + 1, 0);
+  for (std::size_t i = 0; i < count; ++i)
+    for (std::size_t j = 0; j < graph.k; ++j) {
+      ++result.offsets[i + 1];
+      ++result.offsets[graph.neighbours[i * graph.k + j] + 1];
+    }
+  std::partial_sum(result.offsets.begin(), result.offsets.end(), result.offsets.begin());
+  result.adjacency.resize(result.offsets[count]);
+  std::vector<std::uint64_t> next(result.offsets.begin(), result.offsets.end() - 1);
+  for (std::size_t i = 0; i < count; ++i)
+    for (std::size_t j = 0; j < graph.k; ++j) {
+      const std::uint32_t other = graph.neighbours[i * graph.k + j];
+      result.adjacency[next[i]++] = other;
+      result.adjacency[next[other]++] = static_cast<std::uint32_t>(i);
+    }
+  return result;
+}
+
+// Points of each connected component of the graph, in breadth-first order
+// from its lowest index; components in order of their lowest index.
+std::vector<std::vector<std::uint32_t>> graphComponents(const Adjacency& graph, std::size_t count) {
+  std::vector<std::vector<std::uint32_t>> components;
+  std::vector<char> seen(count, 0);
+  for (std::uint32_t start = 0; start < count; ++start) {
+    if (seen[start]) continue;
+    std::vector<std::uint32_t> members{start};
+    seen[start] = 1;
+    for (std::size_t head = 0; head < members.size(); ++head)
+      for (std::uint64_t e = graph.offsets[members[head]]; e < graph.offsets[members[head] + 1]; ++e)
+        if (!seen[graph.adjacency[e]]) {
+          seen[graph.adjacency[e]] = 1;
+          members.push_back(graph.adjacency[e]);
+        }
+    components.push_back(std::move(members));
+  }
+  return components;
+}
+
+// Hoppe et al.'s propagation (the rule CGAL's MST orientation follows, in a
+// fraction of its time and memory): from the component's highest point,
+// whose normal is turned up, visit the points in the order of a minimum
+// spanning tree of the graph weighted by 1 - |n_i . n_j| (Prim, lazy binary
+// heap, ties broken by index), turning each normal to agree with the one it
+// was reached from. Nearly parallel normals are passed on first, so a flip
+// crosses sharp creases and thin sheets last.
+void propagateFromHighest(const Adjacency& graph, const std::vector<Vec3f>& points, std::vector<Vec3f>& normals,
+                          const std::vector<std::uint32_t>& component, std::vector<char>& visited) {
+  const std::uint32_t seed = *std::max_element(component.begin(), component.end(), [&](std::uint32_t a, std::uint32_t b) {
+    return std::tie(points[a].z(), b) < std::tie(points[b].z(), a);
+  });
+  if (normals[seed].z() < 0.0f) normals[seed] = -normals[seed];
+  using Edge = std::tuple<float, std::uint32_t, std::uint32_t>;  // weight, to, from
+  std::priority_queue<Edge, std::vector<Edge>, std::greater<Edge>> frontier;
+  auto pushEdgesOf = [&](std::uint32_t from) {
+    visited[from] = 1;
+    for (std::uint64_t e = graph.offsets[from]; e < graph.offsets[from + 1]; ++e) {
+      const std::uint32_t to = graph.adjacency[e];
+      if (!visited[to]) frontier.emplace(1.0f - std::abs(normals[from].dot(normals[to])), to, from);
+    }
+  };
+  pushEdgesOf(seed);
+  while (!frontier.empty()) {
+    const auto [weight, to, from] = frontier.top();
+    frontier.pop();
+    if (visited[to]) continue;
+    if (normals[from].dot(normals[to]) < 0.0f) normals[to] = -normals[to];
+    pushEdgesOf(to);
+  }
+}
+
+// Orientation by propagation over the k-NN graph, component by component
+// (each one's highest normal up and out, as for closed objects); components
+// of k points or fewer agree with their nearest oriented point.
+Result<IslandOrientation> orientByPropagation(const std::vector<Vec3f>& points, std::vector<Vec3f>& normals, int k) {
+  IslandOrientation result;
+  const auto nearest = flann_adapter::nearestNeighbourGraph(points, static_cast<std::size_t>(k));
+  if (!nearest) return nearest.error();
+  const Adjacency graph = symmetricGraph(*nearest, points.size());
+  std::vector<char> visited(points.size(), 0);
+  std::vector<std::uint32_t> oriented, leftovers;
+  for (const auto& component : graphComponents(graph, points.size())) {
+    if (component.size() <= static_cast<std::size_t>(k)) {
+      leftovers.insert(leftovers.end(), component.begin(), component.end());
+      continue;
+    }
+    propagateFromHighest(graph, points, normals, component, visited);
+    oriented.insert(oriented.end(), component.begin(), component.end());
+    ++result.islands;
+  }
+  std::sort(leftovers.begin(), leftovers.end());
+  std::sort(oriented.begin(), oriented.end());
+  if (!leftovers.empty() && !oriented.empty()) {
+    const auto agrees = agreesWithNearest(points, normals, oriented, leftovers);
+    if (!agrees) return agrees.error();
+    for (std::size_t q = 0; q < leftovers.size(); ++q)
+      if (!(*agrees)[q]) normals[leftovers[q]] = -normals[leftovers[q]];
+  }
+  result.leftovers = leftovers.size();
+  return result;
+}
+
 }  // namespace
 
 Result<int> chooseNeighbourCount(const std::vector<Vec3f>& points) {
@@ -171,7 +284,8 @@ Result<int> chooseNeighbourCount(const std::vector<Vec3f>& points) {
 }
 
 Result<OrientedNormals> estimateOrientedNormals(const std::vector<Vec3f>& points,
-                                                const std::optional<Viewpoint>& viewpoint, int k) {
+                                                const std::optional<Viewpoint>& viewpoint, int k,
+                                                OrientationMethod orientation) {
   OrientedNormals result;
   if (k > 0) {
     result.neighbours = k;
@@ -188,12 +302,15 @@ Result<OrientedNormals> estimateOrientedNormals(const std::vector<Vec3f>& points
     result.orientation = "viewpoint";
     return result;
   }
-  result.orientation = "mst";
-  // MST needs every normal defined; undefined ones are dropped by the caller.
+  result.orientation = orientationMethodName(orientation);
+  // Orienting needs every normal defined; undefined ones are dropped by the caller.
   std::vector<Vec3f> defined = result.normals;
   for (Vec3f& n : defined)
     if (!n.allFinite()) n = Vec3f::UnitZ();
-  const Result<IslandOrientation> islands = orientByIslands(points, defined, std::max(result.neighbours, 12));
+  const int graphK = std::max(result.neighbours, 12);
+  const Result<IslandOrientation> islands = orientation == OrientationMethod::CgalMst
+                                                ? orientByIslands(points, defined, graphK)
+                                                : orientByPropagation(points, defined, graphK);
   if (!islands) return islands.error();
   for (std::size_t i = 0; i < points.size(); ++i)
     if (result.normals[i].allFinite()) result.normals[i] = defined[i];

@@ -3,6 +3,7 @@
 
 #include "core/error.h"
 #include "core/geometry.h"
+#include "ingest/ingest.h"
 
 #include <optional>
 #include <string>
@@ -25,16 +26,17 @@ Result<int> chooseNeighbourCount(const std::vector<Vec3f>& points);
 struct OrientedNormals {
   std::vector<Vec3f> normals;   // unit, or NaN where no plane could be fitted
   int neighbours = 0;           // k used
-  std::string orientation;      // "viewpoint" or "mst"
+  std::string orientation;      // "viewpoint", "propagation" or "mst"
   std::size_t islands = 0;      // separate pieces, each oriented by its own MST
   std::size_t unoriented = 0;   // points no MST pass reached (oriented by their nearest neighbour)
 };
 
 // Estimates normals (PCL, k nearest neighbours; k = 0 chooses it) and orients
-// them towards `viewpoint` when given, else by CGAL's minimum spanning tree,
-// island by island for scans in separate pieces (docs/ingest.md). Internal
-// error when PCL or CGAL fails.
+// them towards `viewpoint` when given, else by `orientation`, island by
+// island for scans in separate pieces (docs/ingest.md). Internal error when a
+// library fails.
 Result<OrientedNormals> estimateOrientedNormals(const std::vector<Vec3f>& points,
-                                                const std::optional<Viewpoint>& viewpoint, int k);
+                                                const std::optional<Viewpoint>& viewpoint, int k,
+                                                OrientationMethod orientation = OrientationMethod::Propagation);
 
 }  // namespace apo::normals

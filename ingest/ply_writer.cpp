@@ -5,7 +5,7 @@
 //   comment written by apo
 //   comment apo_origin X Y Z           (if the scan is in a local frame)
 //   element vertex N
-//   property float x, y, z
+//   property float x, y, z             (double in world coordinates: PlyFrame::World)
 //   property float nx, ny, nz          (if normals)
 //   property uchar red, green, blue    (if colors)
 //   property float intensity           (if intensities)
@@ -45,15 +45,23 @@ void checkAttributeSizes(const PointSet& points) {
   APO_CHECK_OP(n, <=, static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()));
 }
 
-std::string header(const Scan& scan, PlyEncoding encoding) {
+bool writesWorld(const Scan& scan, PlyFrame frame) { return frame == PlyFrame::World && scan.isGeoreferenced(); }
+
+Eigen::Vector3d worldPosition(const Scan& scan, const Vec3f& p) {
+  return {scan.origin[0] + p.x(), scan.origin[1] + p.y(), scan.origin[2] + p.z()};
+}
+
+std::string header(const Scan& scan, PlyEncoding encoding, PlyFrame frame) {
   const PointSet& points = scan.points;
   std::string text = "ply\n";
   text += encoding == PlyEncoding::Ascii ? "format ascii 1.0\n" : "format binary_little_endian 1.0\n";
   text += "comment written by apo\n";
   // Shortest round-tripping doubles: the reader gets the same origin back.
-  if (scan.isGeoreferenced()) text += fmt::format("comment apo_origin {} {} {}\n", scan.origin[0], scan.origin[1], scan.origin[2]);
+  if (scan.isGeoreferenced() && !writesWorld(scan, frame))
+    text += fmt::format("comment apo_origin {} {} {}\n", scan.origin[0], scan.origin[1], scan.origin[2]);
   text += fmt::format("element vertex {}\n", points.size());
-  text += "property float x\nproperty float y\nproperty float z\n";
+  text += writesWorld(scan, frame) ? "property double x\nproperty double y\nproperty double z\n"
+                                   : "property float x\nproperty float y\nproperty float z\n";
   if (points.hasNormals()) text += "property float nx\nproperty float ny\nproperty float nz\n";
   if (points.hasColors()) text += "property uchar red\nproperty uchar green\nproperty uchar blue\n";
   if (points.hasIntensities()) text += "property float intensity\n";
@@ -67,7 +75,7 @@ std::string header(const Scan& scan, PlyEncoding encoding) {
   return text;
 }
 
-void appendAsciiBody(const Scan& scan, std::string& out) {
+void appendAsciiBody(const Scan& scan, PlyFrame frame, std::string& out) {
   const PointSet& points = scan.points;
   // fmt's own buffer appends in blocks; a back_inserter into the string would
   // push characters one at a time.
@@ -75,7 +83,12 @@ void appendAsciiBody(const Scan& scan, std::string& out) {
   auto sink = std::back_inserter(text);
   for (std::size_t i = 0; i < points.size(); ++i) {
     const Vec3f& p = points.positions[i];
-    fmt::format_to(sink, "{} {} {}", p.x(), p.y(), p.z());
+    if (writesWorld(scan, frame)) {
+      const Eigen::Vector3d w = worldPosition(scan, p);
+      fmt::format_to(sink, "{} {} {}", w.x(), w.y(), w.z());
+    } else {
+      fmt::format_to(sink, "{} {} {}", p.x(), p.y(), p.z());
+    }
     if (points.hasNormals()) {
       const Vec3f& n = points.normals[i];
       fmt::format_to(sink, " {} {} {}", n.x(), n.y(), n.z());
@@ -108,15 +121,21 @@ void appendVec3(std::string& out, const Vec3f& v) {
   appendLittleEndian(out, v.z());
 }
 
-void appendBinaryBody(const Scan& scan, std::string& out) {
+void appendBinaryBody(const Scan& scan, PlyFrame frame, std::string& out) {
   const PointSet& points = scan.points;
-  const std::size_t vertexBytes = 12 + (points.hasNormals() ? 12 : 0) + (points.hasColors() ? 3 : 0) +
+  const bool world = writesWorld(scan, frame);
+  const std::size_t vertexBytes = (world ? 24 : 12) + (points.hasNormals() ? 12 : 0) + (points.hasColors() ? 3 : 0) +
                                   (points.hasIntensities() ? 4 : 0) + (points.hasClassifications() ? 1 : 0) +
                                   (points.hasReturns() ? 2 : 0);
   constexpr std::size_t kFaceBytes = 1 + 3 * 4;
   out.reserve(out.size() + points.size() * vertexBytes + scan.triangles.size() * kFaceBytes);
   for (std::size_t i = 0; i < points.size(); ++i) {
-    appendVec3(out, points.positions[i]);
+    if (world) {
+      const Eigen::Vector3d w = worldPosition(scan, points.positions[i]);
+      for (int axis = 0; axis < 3; ++axis) appendLittleEndian(out, w[axis]);
+    } else {
+      appendVec3(out, points.positions[i]);
+    }
     if (points.hasNormals()) appendVec3(out, points.normals[i]);
     if (points.hasColors()) {
       const Rgb8& c = points.colors[i];
@@ -139,13 +158,13 @@ void appendBinaryBody(const Scan& scan, std::string& out) {
 
 }  // namespace
 
-std::string encodePly(const Scan& scan, PlyEncoding encoding) {
+std::string encodePly(const Scan& scan, PlyEncoding encoding, PlyFrame frame) {
   checkAttributeSizes(scan.points);
-  std::string out = header(scan, encoding);
+  std::string out = header(scan, encoding, frame);
   if (encoding == PlyEncoding::Ascii)
-    appendAsciiBody(scan, out);
+    appendAsciiBody(scan, frame, out);
   else
-    appendBinaryBody(scan, out);
+    appendBinaryBody(scan, frame, out);
   return out;
 }
 

@@ -19,6 +19,9 @@ Scan readStl(std::string_view bytes);
 Scan readLas(std::string_view bytes);  // LAS 1.0-1.4; LAZ refused by name
 
 enum class PlyEncoding { Ascii, BinaryLittleEndian };
-std::string encodePly(const Scan& scan, PlyEncoding encoding);
+// Local: float positions in the scan's frame, its origin in an apo_origin
+// comment. World: double positions origin + position, no comment.
+enum class PlyFrame { Local, World };
+std::string encodePly(const Scan& scan, PlyEncoding encoding, PlyFrame frame = PlyFrame::Local);
 
 }  // namespace apo::readers

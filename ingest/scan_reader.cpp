@@ -109,8 +109,9 @@ Result<Scan> readScan(const fs::path& path, ScanFormat format) {
   return internalError("{}: no reader for format {}", path.string(), static_cast<int>(format));
 }
 
-Status writePly(const fs::path& path, const Scan& scan) {
-  return writeFileAtomically(path, readers::encodePly(scan, readers::PlyEncoding::BinaryLittleEndian));
+Status writePly(const fs::path& path, const Scan& scan, bool worldCoordinates) {
+  return writeFileAtomically(path, readers::encodePly(scan, readers::PlyEncoding::BinaryLittleEndian,
+                                                      worldCoordinates ? readers::PlyFrame::World : readers::PlyFrame::Local));
 }
 
 Status writePlyAscii(const fs::path& path, const Scan& scan) {

@@ -18,7 +18,8 @@ Json ingestJson(const IngestOptions& o) {
           {"outlier-k", o.outlierNeighbours},         {"outlier-std", o.outlierStdDevs},
           {"voxel", o.voxelSize},                     {"no-normals", !o.estimateNormals},
           {"normal-k", o.normalNeighbours},           {"force-normals", o.forceNormalEstimation},
-          {"sensor", vectorOrNull(o.sensorPosition)}};
+          {"sensor", vectorOrNull(o.sensorPosition)}, {"orient", orientationMethodName(o.orientation)},
+          {"keep-winding", !o.orientFaces}};
 }
 
 Json reconstructJson(const ReconstructOptions& o) {
@@ -35,7 +36,8 @@ Json reconstructJson(const ReconstructOptions& o) {
 }
 
 Json simplifyJson(const SimplifyOptions& o) {
-  return {{"faces", o.targetFaces}, {"ratio", o.ratio}, {"policy", o.policy == SimplifyPolicy::LindstromTurk ? "lt" : "gh"}};
+  return {{"faces", o.targetFaces}, {"ratio", o.ratio}, {"policy", o.policy == SimplifyPolicy::LindstromTurk ? "lt" : "gh"},
+          {"no-quick-pass", !o.quickFirstPass}};
 }
 
 Json bakeJson(const BakeOptions& o) {
@@ -64,6 +66,7 @@ Status validateRunOptions(const RunOptions& options) {
 
 nlohmann::ordered_json optionsJson(const RunOptions& options) {
   return {{"detail-source", detailSourceName(options.detailSource)},
+          {"keep-georeference", options.keepGeoreference},
           {"ingest", ingestJson(options.ingest)},
           {"reconstruct", reconstructJson(options.reconstruct)},
           {"simplify", simplifyJson(options.simplify)},

@@ -52,6 +52,8 @@ inline RenderOptions reportRenderOptions() {
 // Every option of every stage of a run, with their defaults.
 struct RunOptions {
   DetailSource detailSource = DetailSource::Mesh;
+  // M.ply and m.ply in world coordinates (double) rather than the local frame.
+  bool keepGeoreference = false;
   IngestOptions ingest;
   ReconstructOptions reconstruct;
   SimplifyOptions simplify;

@@ -104,6 +104,12 @@ class Run {
     if (!ingested) return ingested.error();
     data_.scan = std::move(ingested->scan);
     manifest_["results"]["ingest"] = Json::parse(ingestReportJson(ingested->report));
+    // Every output's coordinates: the scan's file coordinates = origin + them
+    // (local), or the file's own (world, --keep-georeference; scan.apo and the
+    // renders stay local, the .apo header holding the origin).
+    const auto& o = data_.scan.origin;
+    manifest_["georeference"] = {{"origin", {o[0], o[1], o[2]}},
+                                 {"meshes", settings_.options.keepGeoreference && data_.scan.isGeoreferenced() ? "world" : "local"}};
     return okStatus();
   }
 
@@ -116,7 +122,7 @@ class Run {
     auto reconstruction = reconstructScan(data_.scan, settings_.options.reconstruct, reportFraction());
     if (!reconstruction) return aboutInput(settings_.input, reconstruction.error());
     data_.dense = std::move(reconstruction->mesh);
-    APO_RETURN_IF_ERROR(writePly(settings_.outDir / "M.ply", data_.dense));
+    APO_RETURN_IF_ERROR(writePly(settings_.outDir / "M.ply", data_.dense, settings_.options.keepGeoreference));
     addFile("M", "M.ply");
     manifest_["results"]["reconstruct"] = Json::parse(reconstructReportJson(reconstruction->report));
     return okStatus();
@@ -126,7 +132,7 @@ class Run {
     auto simplified = simplifyMesh(data_.dense, settings_.options.simplify, reportFraction());
     if (!simplified) return aboutInput(settings_.input, simplified.error());
     data_.coarse = std::move(simplified->mesh);
-    APO_RETURN_IF_ERROR(writePly(settings_.outDir / "m.ply", data_.coarse));
+    APO_RETURN_IF_ERROR(writePly(settings_.outDir / "m.ply", data_.coarse, settings_.options.keepGeoreference));
     addFile("m", "m.ply");
     manifest_["results"]["simplify"] = Json::parse(simplifyReportJson(simplified->report));
     return okStatus();

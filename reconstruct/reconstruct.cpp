@@ -339,7 +339,11 @@ Result<Reconstruction> reconstructSurface(const PointSet& input, const Reconstru
 
 Result<Reconstruction> reconstructScan(const Scan& scan, const ReconstructOptions& options,
                                        const ProgressCallback& onProgress) {
-  if (!scan.isMesh()) return reconstructSurface(scan.points, options, onProgress);
+  if (!scan.isMesh()) {
+    auto reconstruction = reconstructSurface(scan.points, options, onProgress);
+    if (reconstruction) reconstruction->mesh.origin = scan.origin;  // M stays in the scan's frame
+    return reconstruction;
+  }
   APO_RETURN_IF_ERROR(validateReconstructOptions(options));
   Reconstruction adopted;
   adopted.mesh = scan;

@@ -115,7 +115,15 @@ struct SimplifyOptions {
   std::uint64_t targetFaces = 3000;  // used when ratio == 0
   double ratio = 0.0;                // (0, 1]: target = ratio x input faces
   SimplifyPolicy policy = SimplifyPolicy::GarlandHeckbert;
+  // Large meshes first go down to about kQuickCollapseFaces triangles by
+  // meshoptimizer's collapses (a second for a million triangles, where CGAL's
+  // take thirty), then CGAL's finish at the target. False: CGAL alone.
+  bool quickFirstPass = true;
 };
+
+// The quick first pass runs when M has more than twice this many triangles
+// (and the target is well below it): it stops at this count.
+inline constexpr std::uint64_t kQuickCollapseFaces = 100000;
 
 // Usage error naming the option when one is out of range.
 Status validateSimplifyOptions(const SimplifyOptions& options);
@@ -126,6 +134,11 @@ struct SimplifyReport {
   // Borders are kept unless they alone hold more faces than the target; then
   // border edges collapse too, in a second, shape-keeping pass.
   bool bordersCollapsed = false;
+  // Faces left by the quick first pass (meshoptimizer), 0 when it did not
+  // run, and its error as a fraction of M's extent.
+  std::uint64_t quickPassFaces = 0;
+  double quickPassError = 0.0;
+  std::uint64_t quickPassPockets = 0;  // folds and pinched pockets it made, removed before CGAL
   std::uint64_t filledHoles = 0;  // small holes of M closed before collapsing
   // Two-sided Hausdorff and mean distances between m and M, as fractions of
   // M's bounding-box diagonal.

@@ -40,6 +40,12 @@ std::string simplifyReportJson(const SimplifyReport& r) {
   json["format_version"] = 1;
   json["policy"] = r.policy;
   json["faces"] = {{"in", r.facesIn}, {"target", r.targetFaces}, {"out", r.facesOut}};
+  json["quick_first_pass"] = r.quickPassFaces == 0 ? nlohmann::ordered_json(nullptr)
+                                                    : nlohmann::ordered_json{{"library", "meshoptimizer"},
+                                                                             {"faces_out", r.quickPassFaces},
+                                                                             {"error", r.quickPassError},
+                                                                             {"pockets_removed", r.quickPassPockets},
+                                                                             {"unit", "bbox_extent"}};
   json["filled_holes"] = r.filledHoles;
   json["borders_collapsed"] = r.bordersCollapsed;
   json["distance_to_input"] = {{"hausdorff", r.hausdorff}, {"mean", r.meanDistance}, {"unit", "bbox_diagonal"}};

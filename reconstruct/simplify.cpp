@@ -2,6 +2,7 @@
 #include "reconstruct/reconstruct.h"
 
 #include "adapters/cgal/cgal_jobs.h"
+#include "adapters/meshopt/meshopt_simplify.h"
 #include "core/mesh_edit.h"
 #include "core/timing.h"
 #include "reconstruct/mesh_quality.h"
@@ -11,6 +12,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <optional>
 
 namespace apo {
 namespace {
@@ -59,6 +61,27 @@ cgal_adapter::CollapseCost collapseCostOf(SimplifyPolicy policy) {
                                                  : cgal_adapter::CollapseCost::GarlandHeckbert;
 }
 
+// The quick pass stops early rather than move the surface by more than this
+// fraction of its extent; CGAL's collapses then do the rest.
+constexpr double kQuickPassMaxError = 0.01;
+// It keeps at least this many faces per face of the target, so that CGAL's
+// manifold-keeping collapses make the final choices.
+constexpr std::uint64_t kQuickPassFacesPerTarget = 20;
+
+// M brought down quickly when it is large; nullopt when the pass is not worth it.
+Result<std::optional<meshopt_adapter::QuickCollapse>> quickFirstPass(const Scan& mesh, std::uint64_t target,
+                                                                      const SimplifyOptions& options) {
+  const std::uint64_t stop = std::max(kQuickCollapseFaces, kQuickPassFacesPerTarget * target);
+  if (!options.quickFirstPass || mesh.triangles.size() <= 2 * stop) return std::optional<meshopt_adapter::QuickCollapse>{};
+  auto collapsed = meshopt_adapter::quickCollapse(mesh, stop, kQuickPassMaxError);
+  if (!collapsed) return collapsed.error();
+  spdlog::info("simplify: quick first pass (meshoptimizer) {} -> {} faces, error {:.2g} of the extent; {} folded "
+               "triangles and {} pinched pockets removed",
+               mesh.triangles.size(), collapsed->mesh.triangles.size(), collapsed->relativeError,
+               collapsed->coincidentTriangles, collapsed->pockets);
+  return std::optional<meshopt_adapter::QuickCollapse>{std::move(*collapsed)};
+}
+
 }  // namespace
 
 Status validateSimplifyOptions(const SimplifyOptions& options) {
@@ -98,7 +121,15 @@ Result<Simplification> simplifyMesh(const Scan& mesh, const SimplifyOptions& opt
     report.policy = "none (target not below input)";
     result.mesh = mesh;
   } else {
-    auto collapsed = cgal_adapter::edgeCollapse(mesh, target, collapseCostOf(options.policy),
+    auto quick = quickFirstPass(mesh, target, options);
+    if (!quick) return quick.error();
+    if (*quick) {
+      report.quickPassFaces = (*quick)->mesh.triangles.size();
+      report.quickPassError = (*quick)->relativeError;
+      report.quickPassPockets = (*quick)->coincidentTriangles / 2 + (*quick)->pockets;
+    }
+    const Scan& collapseInput = *quick ? (*quick)->mesh : mesh;
+    auto collapsed = cgal_adapter::edgeCollapse(collapseInput, target, collapseCostOf(options.policy),
                                                 [&](double fraction) { reportProgress(onProgress, kCollapseShare * fraction); });
     if (!collapsed) return collapsed.error();
     if (collapsed->repairedVertices > 0)
@@ -113,6 +144,8 @@ Result<Simplification> simplifyMesh(const Scan& mesh, const SimplifyOptions& opt
                    report.targetFaces);
     result.mesh = std::move(collapsed->mesh);
   }
+  result.mesh.origin = mesh.origin;  // m stays in M's frame
+  result.mesh.readNotes.clear();
   dropDegenerateTriangles(result.mesh);
   dropUnreferencedVertices(result.mesh);
   result.mesh.points.normals = areaWeightedVertexNormals(result.mesh);

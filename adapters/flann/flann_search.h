@@ -43,5 +43,15 @@ Result<std::vector<float>> nearestDistances(const std::vector<Vec3f>& reference,
 // reference point).
 Result<std::vector<std::uint32_t>> nearestIndices(const std::vector<Vec3f>& reference, const std::vector<Vec3f>& queries);
 
+// Each point's k nearest other points, nearest first: row i of `neighbours`
+// (k entries) for point i. k is reduced to the number of other points. Batch
+// search on every core, the result independent of their number; ties in
+// distance come in the k-d tree's order, the same on every run.
+struct NeighbourGraph {
+  std::size_t k = 0;
+  std::vector<std::uint32_t> neighbours;  // points.size() x k
+};
+Result<NeighbourGraph> nearestNeighbourGraph(const std::vector<Vec3f>& points, std::size_t k);
+
 }  // namespace flann_adapter
 }  // namespace apo

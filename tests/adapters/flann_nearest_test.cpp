@@ -4,6 +4,7 @@
 
 #include "tests/test_support.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -49,6 +50,34 @@ TEST(FlannNearest, FindsReferencePointsThemselves) {
     EXPECT_EQ(indices[i], i);
     EXPECT_EQ(distances[i], 0.0f);
   }
+}
+
+// Each row: k other points, nearest first, at the brute-force k nearest
+// distances (ties may swap indices, never distances).
+TEST(FlannNearest, NeighbourGraphMatchesBruteForce) {
+  auto points = test::randomCubePoints(3000, 3);
+  points.push_back(points[5]);  // a coincident pair: each is the other's nearest
+  const NeighbourGraph graph = nearestNeighbourGraph(points, 8).value();
+  ASSERT_EQ(graph.k, 8u);
+  ASSERT_EQ(graph.neighbours.size(), points.size() * 8);
+  for (std::size_t i = 0; i < points.size(); i += 7) {
+    std::vector<double> expected;
+    for (std::size_t j = 0; j < points.size(); ++j)
+      if (j != i) expected.push_back((points[j].cast<double>() - points[i].cast<double>()).norm());
+    std::sort(expected.begin(), expected.end());
+    for (std::size_t n = 0; n < 8; ++n) {
+      const std::uint32_t j = graph.neighbours[i * 8 + n];
+      ASSERT_NE(j, i) << i;
+      EXPECT_NEAR((points[j].cast<double>() - points[i].cast<double>()).norm(), expected[n], 1e-6) << i << " " << n;
+    }
+  }
+  EXPECT_EQ(graph.neighbours[5 * 8], points.size() - 1);
+  EXPECT_EQ(graph.neighbours[(points.size() - 1) * 8], 5u);
+  // Fewer points than k + 1: every other point.
+  const NeighbourGraph small = nearestNeighbourGraph({Vec3f(0, 0, 0), Vec3f(1, 0, 0), Vec3f(3, 0, 0)}, 8).value();
+  EXPECT_EQ(small.k, 2u);
+  EXPECT_EQ(small.neighbours, (std::vector<std::uint32_t>{1, 2, 0, 2, 1, 0}));
+  EXPECT_EQ(nearestNeighbourGraph({}, 8).value().neighbours.size(), 0u);
 }
 
 TEST(FlannNearest, EmptyInputs) {

@@ -96,6 +96,67 @@ TEST(RunCommand, PointsAreReconstructedAndCanBeMThemselves) {
   EXPECT_THAT(result.output, HasSubstr(fmt::format("\"sha256\": \"{}\"", manifest["input"]["sha256"].get<std::string>())));
 }
 
+std::string afterHeader(const std::string& ply) { return ply.substr(ply.find("end_header\n")); }
+
+// The same scan 5.4e6 units from zero (UTM-like), written in double: read in
+// double and moved into a local frame whose origin is the whole shift (its
+// centre is near zero), it gives the same m, texture and figures, byte for
+// byte, with the origin recorded in the manifest, m.ply and scan.apo.
+TEST(RunCommand, AGeoreferencedScanGivesTheSameAssetAsTheScanAtZero) {
+  const fs::path dir = test::freshTempDir();
+  const Scan sphere = test::BumpySphere().mesh(4);
+  ASSERT_TRUE(writePly(dir / "near.ply", sphere).ok());
+  Scan far = sphere;
+  far.origin = {512000.0, 5403000.0, 300.0};
+  ASSERT_TRUE(writePly(dir / "far.ply", far, /*worldCoordinates=*/true).ok());
+  ASSERT_THAT(fileBytes(dir / "far.ply"), HasSubstr("property double x"));
+  for (const char* name : {"near", "far"}) {
+    const auto result = apo(fmt::format("run '{}' -o '{}' {}", (dir / (std::string(name) + ".ply")).string(),
+                                        (dir / name).string(), kQuick));
+    ASSERT_EQ(result.exitCode, 0) << result.output;
+  }
+  const nlohmann::json nearManifest = readJson(dir / "near" / "manifest.json");
+  const nlohmann::json farManifest = readJson(dir / "far" / "manifest.json");
+  EXPECT_EQ(nearManifest["georeference"]["origin"], nlohmann::json::array({0.0, 0.0, 0.0}));
+  EXPECT_EQ(farManifest["georeference"]["origin"], nlohmann::json::array({512000.0, 5403000.0, 300.0}));
+  EXPECT_EQ(farManifest["georeference"]["meshes"], "local");
+  EXPECT_EQ(farManifest["results"]["ingest"]["origin"], farManifest["georeference"]["origin"]);
+
+  const std::string nearM = fileBytes(dir / "near" / "m.ply"), farM = fileBytes(dir / "far" / "m.ply");
+  EXPECT_THAT(farM, HasSubstr("comment apo_origin 512000 5403000 300\n"));
+  EXPECT_EQ(afterHeader(nearM), afterHeader(farM));
+  const std::string nearApo = fileBytes(dir / "near" / "scan.apo"), farApo = fileBytes(dir / "far" / "scan.apo");
+  ASSERT_GT(farApo.size(), 160u);
+  EXPECT_EQ(nearApo[8], 1);  // format version 1 without an origin,
+  EXPECT_EQ(farApo[8], 2);   // 2 with one
+  EXPECT_EQ(nearApo.substr(128), farApo.substr(160));
+  EXPECT_EQ(fileBytes(dir / "near" / "texture.png"), fileBytes(dir / "far" / "texture.png"));
+  nlohmann::json nearFigures = nearManifest["results"]["render"]["overall"];
+  nlohmann::json farFigures = farManifest["results"]["render"]["overall"];
+  nearFigures.erase("cost");  // frame times
+  farFigures.erase("cost");
+  EXPECT_EQ(nearFigures, farFigures);
+  for (const char* key : {"nodes", "sampling", "texture"})
+    EXPECT_EQ(nearManifest["results"]["bake"][key], farManifest["results"]["bake"][key]) << key;
+
+  // --keep-georeference: m.ply in the file's own coordinates, in double.
+  const auto kept = apo(fmt::format("run '{}' -o '{}' {} --keep-georeference", (dir / "far.ply").string(),
+                                    (dir / "kept").string(), kQuick));
+  ASSERT_EQ(kept.exitCode, 0) << kept.output;
+  EXPECT_EQ(readJson(dir / "kept" / "manifest.json")["georeference"]["meshes"], "world");
+  const std::string keptM = fileBytes(dir / "kept" / "m.ply");
+  EXPECT_THAT(keptM, HasSubstr("property double x"));
+  EXPECT_THAT(keptM, Not(HasSubstr("apo_origin")));
+  const auto local = readScan(dir / "near" / "m.ply");
+  const auto world = readScan(dir / "kept" / "m.ply");
+  ASSERT_TRUE(local.ok() && world.ok());
+  ASSERT_EQ(local->points.size(), world->points.size());
+  for (std::size_t i = 0; i < local->points.size(); ++i)
+    for (int axis = 0; axis < 3; ++axis)
+      ASSERT_DOUBLE_EQ(world->origin[axis] + world->points.positions[i][axis],
+                       far.origin[axis] + local->points.positions[i][axis]) << i;
+}
+
 // Not on a terminal (the test reads a pipe): a log line as each stage
 // starts, passes each tenth and ends; --quiet: none of them.
 TEST(RunCommand, ProgressIsLogLinesOffATerminalAndQuietSilencesThem) {

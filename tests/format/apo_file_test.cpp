@@ -195,14 +195,51 @@ TEST(ApoFile, BadIdentityFields) {
   mangled.erase(4, 1);
   expectRejected(mangled, "(magic)");
   std::string version = good;
-  patch<std::uint32_t>(version, kVersionAt, 2);
-  expectRejected(version, "byte 8 (format version): expected 1 (the only version this reader knows), found 2");
+  patch<std::uint32_t>(version, kVersionAt, 3);
+  expectRejected(version, "byte 8 (format version): expected 1 or 2 (the versions this reader knows), found 3");
+  std::string claimsTwo = good;
+  patch<std::uint32_t>(claimsTwo, kVersionAt, 2);
+  expectRejected(claimsTwo, "byte 16 (header size): expected 160 for format version 2, found 128");
   std::string byteOrder = good;
   patch<std::uint32_t>(byteOrder, kByteOrderAt, 0x04030201);
   expectRejected(byteOrder, "byte 12 (byte-order mark)");
   std::string headerSize = good;
   patch<std::uint32_t>(headerSize, kHeaderSizeAt, 136);
   expectRejected(headerSize, "byte 16 (header size): expected 128 for format version 1, found 136");
+}
+
+// Version 2 (a scan in a local frame): the version-1 header, then the
+// origin at 128, 136 and 144 and 8 reserved zero bytes; the payload at 160.
+TEST(ApoFile, AnOriginMakesAVersion2FileThatReadsBack) {
+  ApoTexture texture = tinyTexture();
+  texture.origin = {512000.0, 5403000.5, -300.25};
+  const std::string bytes = writtenBytes(texture);
+  ASSERT_EQ(bytes.size(), 160u + 48u);
+  EXPECT_EQ(fieldAt<std::uint32_t>(bytes, kVersionAt), 2u);
+  EXPECT_EQ(fieldAt<std::uint32_t>(bytes, kHeaderSizeAt), 160u);
+  EXPECT_EQ(fieldAt<double>(bytes, 128), 512000.0);
+  EXPECT_EQ(fieldAt<double>(bytes, 136), 5403000.5);
+  EXPECT_EQ(fieldAt<double>(bytes, 144), -300.25);
+  EXPECT_EQ(fieldAt<std::uint64_t>(bytes, 152), 0u);
+  // The payload and its checksum are version 1's.
+  const std::string v1 = writtenBytes(tinyTexture());
+  EXPECT_EQ(bytes.substr(160), v1.substr(kPayloadAt));
+  EXPECT_EQ(bytes.substr(kChecksumAt, 32), v1.substr(kChecksumAt, 32));
+  const Result<ApoTexture> read = parseApoFile(bytes);
+  ASSERT_TRUE(read.ok()) << read.error().message;
+  expectSameTexture(texture, *read);
+  EXPECT_EQ(read->origin, texture.origin);
+  EXPECT_EQ(parseApoFile(v1)->origin, (std::array<double, 3>{0.0, 0.0, 0.0}));
+
+  std::string nan = bytes;
+  patch(nan, 136, std::numeric_limits<double>::quiet_NaN());
+  expectRejected(nan, "byte 136 (origin y): expected a finite number, found nan");
+  std::string reserved = bytes;
+  reserved[155] = 1;
+  expectRejected(reserved, "byte 152 (reserved): expected 0");
+  expectRejected(bytes.substr(0, 150), "byte 144 (origin z): the file ends after 150 bytes");
+  EXPECT_EQ(describeApoFileByte(bytes, 140), "the header's origin y (bytes 136 to 143)");
+  EXPECT_EQ(describeApoFileByte(bytes, 160), "texel 0, channel R (a grid entry: the grid has 1 texels)");
 }
 
 TEST(ApoFile, BadTransformAndSettings) {

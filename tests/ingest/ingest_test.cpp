@@ -43,7 +43,7 @@ TEST(IngestScan, PointCloudIsCleanedAndGetsOutwardNormals) {
   EXPECT_EQ(removedBy(report, "merge_duplicate_points"), 5u);
   EXPECT_EQ(report.pointsOut, 3000u);
   EXPECT_EQ(report.normalsSource, "estimated");
-  EXPECT_EQ(report.normalOrientation, "mst");
+  EXPECT_EQ(report.normalOrientation, "propagation");
   EXPECT_EQ(report.inputSha256, sha256OfBytes(text));
   const auto& points = result->scan.points;
   for (std::size_t i = 0; i < points.size(); ++i) EXPECT_GT(points.normals[i].dot(points.positions[i]), 0.9f) << i;

@@ -24,11 +24,15 @@ std::vector<Vec3f> noisySphere(std::size_t count, float noise, const Vec3f& cent
   return points;
 }
 
-TEST(EstimateOrientedNormals, SphereWithoutViewpointIsOutwardWithin10Degrees) {
+// Both orientations (our propagation, the default, and CGAL's MST) must give
+// the same outward normals on closed shapes.
+class Orientations : public testing::TestWithParam<OrientationMethod> {};
+
+TEST_P(Orientations, SphereWithoutViewpointIsOutwardWithin10Degrees) {
   const Vec3f centre(1, -1, 3);
   const auto points = noisySphere(20000, 0.002f, centre);
-  const OrientedNormals result = estimateOrientedNormals(points, std::nullopt, 0).value();
-  EXPECT_EQ(result.orientation, "mst");
+  const OrientedNormals result = estimateOrientedNormals(points, std::nullopt, 0, GetParam()).value();
+  EXPECT_EQ(result.orientation, orientationMethodName(GetParam()));
   EXPECT_EQ(result.unoriented, 0u);
   float worst = 0.0f;
   for (std::size_t i = 0; i < points.size(); ++i) {
@@ -38,12 +42,12 @@ TEST(EstimateOrientedNormals, SphereWithoutViewpointIsOutwardWithin10Degrees) {
   EXPECT_LT(worst, 10.0f);
 }
 
-TEST(EstimateOrientedNormals, SeparateObjectsAreEachOrientedOutwards) {
+TEST_P(Orientations, SeparateObjectsAreEachOrientedOutwards) {
   const Vec3f left(-5, 0, 0), right(5, 0, 1);
   auto points = noisySphere(6000, 0.0f, left);
   const auto second = noisySphere(6000, 0.0f, right);
   points.insert(points.end(), second.begin(), second.end());
-  const OrientedNormals result = estimateOrientedNormals(points, std::nullopt, 0).value();
+  const OrientedNormals result = estimateOrientedNormals(points, std::nullopt, 0, GetParam()).value();
   EXPECT_EQ(result.islands, 2u);
   EXPECT_EQ(result.unoriented, 0u);
   for (std::size_t i = 0; i < points.size(); ++i) {
@@ -51,6 +55,29 @@ TEST(EstimateOrientedNormals, SeparateObjectsAreEachOrientedOutwards) {
     ASSERT_LT(angleDegrees(result.normals[i], points[i] - centre), 10.0f) << i;
   }
 }
+
+// A torus (genus 1, two curvatures of opposite sign): the analytic outward
+// normal is the direction from the tube's centre circle.
+TEST_P(Orientations, TorusIsOutwardEverywhere) {
+  const float major = 3.0f, minor = 1.0f;
+  std::vector<Vec3f> points, truth;
+  const int around = 240, tube = 80;
+  for (int i = 0; i < around; ++i)
+    for (int j = 0; j < tube; ++j) {
+      const float u = 2.0f * std::numbers::pi_v<float> * (static_cast<float>(i) + 0.5f * static_cast<float>(j % 2)) / around;
+      const float v = 2.0f * std::numbers::pi_v<float> * static_cast<float>(j) / tube;
+      const Vec3f ring(std::cos(u), std::sin(u), 0.0f);
+      const Vec3f n = std::cos(v) * ring + std::sin(v) * Vec3f::UnitZ();
+      points.push_back(major * ring + minor * n);
+      truth.push_back(n);
+    }
+  const OrientedNormals result = estimateOrientedNormals(points, std::nullopt, 0, GetParam()).value();
+  for (std::size_t i = 0; i < points.size(); ++i) ASSERT_LT(angleDegrees(result.normals[i], truth[i]), 10.0f) << i;
+}
+
+INSTANTIATE_TEST_SUITE_P(EstimateOrientedNormals, Orientations,
+                         testing::Values(OrientationMethod::Propagation, OrientationMethod::CgalMst),
+                         [](const auto& info) { return orientationMethodName(info.param) == "mst" ? std::string("CgalMst") : std::string("Propagation"); });
 
 TEST(EstimateOrientedNormals, ViewpointInsideTheSphereTurnsNormalsInwards) {
   const Vec3f centre(1, -1, 3);

@@ -89,6 +89,29 @@ TEST_P(PlyRoundTrip, LidarAttributesAndTheLocalFrame) {
   expectSameScan(scan, readPly(encodePly(scan, GetParam())));
 }
 
+// World coordinates (--keep-georeference): origin + position in double, no
+// origin comment; the reader moves them back into a local frame of its own
+// choosing, and origin + position is the same point to double precision.
+TEST_P(PlyRoundTrip, WorldCoordinatesAreWrittenInDouble) {
+  Scan scan;  // a metre-sized tetrahedron 5.4e6 m from zero
+  scan.points.positions = {Vec3f(-0.5f, -0.25f, 0.125f), Vec3f(0.75f, 0.1f, -0.3f), Vec3f(0.2f, 0.9f, 0.4f),
+                           Vec3f(0.1f, 0.2f, 1.0f)};
+  scan.triangles = {{0, 2, 1}, {0, 1, 3}, {1, 2, 3}, {0, 3, 2}};
+  scan.origin = {512000.0, 5403000.0, 300.0};
+  const std::string text = encodePly(scan, GetParam(), PlyFrame::World);
+  EXPECT_NE(text.find("property double x\nproperty double y\nproperty double z\n"), std::string::npos);
+  EXPECT_EQ(text.find("apo_origin"), std::string::npos);
+  const Scan read = readPly(text);
+  ASSERT_EQ(read.points.size(), scan.points.size());
+  EXPECT_EQ(read.triangles, scan.triangles);
+  for (std::size_t i = 0; i < scan.points.size(); ++i)
+    for (int axis = 0; axis < 3; ++axis)
+      EXPECT_DOUBLE_EQ(read.origin[axis] + read.points.positions[i][axis],
+                       scan.origin[axis] + scan.points.positions[i][axis]);
+  // A scan near zero has no other frame: World writes it as Local does.
+  EXPECT_EQ(encodePly(mesh(), GetParam(), PlyFrame::World), encodePly(mesh(), GetParam()));
+}
+
 TEST_P(PlyRoundTrip, Mesh) {
   const Scan scan = mesh();
   expectSameScan(scan, readPly(encodePly(scan, GetParam())));

@@ -1,0 +1,71 @@
+#!/usr/bin/env bash
+# Raw acquisitions (issue 13): the 1.2M-triangle simplification with and
+# without meshoptimizer's quick pass beside Open3D, normal orientation of a
+# 1M-point scan without sensor (our propagation against CGAL's MST, against
+# the scan's true normals), and meshes wound inward, in one run.
+# Usage (after the README's setup and build): bash bench/raw_acquisitions.sh [OUTDIR]
+# Prints markdown tables for docs/benchmarks.md.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+out=${1:-out/bench/raw}
+apo=build/apo
+baseline=build/open3d_baseline
+mkdir -p "$out"
+
+# "seconds peak_MiB" of a command (its output goes to $out/log.txt).
+measure() {
+  /usr/bin/time -f "%e %M" -o "$out/time.txt" "$@" >>"$out/log.txt" 2>&1 || { echo "FAILED: $*" >&2; echo "failed -"; return; }
+  awk '{printf "%.2f %d\n", $1, $2 / 1024}' "$out/time.txt"
+}
+json() { python3 -c "import json,sys; j=json.load(open(sys.argv[1])); print(eval(sys.argv[2]))" "$@"; }
+
+# The 1.2M-face bunny: bunny00 Loop-subdivided twice by Open3D.
+big="$out/bunny_1M.ply"
+[ -f "$big" ] || $baseline subdivide datasets/cgal/meshes/bunny00.off 2 "$big" >>"$out/log.txt"
+
+echo "### Simplifying 1,206,528 faces to 3,000 (whole process, reading included)"
+echo
+echo "| method | seconds | peak MiB | faces out | Hausdorff / diag | mean / diag |"
+echo "|---|---|---|---|---|---|"
+for variant in quick cgal-only; do
+  flags=""; [ "$variant" = cgal-only ] && flags="--no-quick-pass"
+  read -r s mem < <(measure $apo -q simplify "$big" -o "$out/simplify-$variant" --faces 3000 $flags)
+  j="$out/simplify-$variant/simplify.json"
+  echo "| apo ($variant) | $s | $mem | $(json "$j" 'j["faces"]["out"]') | $(json "$j" '"%.5f" % j["distance_to_input"]["hausdorff"]') | $(json "$j" '"%.6f" % j["distance_to_input"]["mean"]') |"
+done
+read -r s mem < <(measure $baseline decimate "$big" 3000 "$out/open3d_decimated.ply")
+echo "| Open3D quadric decimation | $s | $mem | 3000 | | |"
+echo
+
+echo "### Orienting a 1M-point scan without sensor position (ingest, whole process)"
+echo
+scan="$out/bunny_scan.ply"
+[ -f "$scan" ] || $apo -q simulate-scan "$big" -o "$scan" --views 8 --rays 700 >>"$out/log.txt"
+echo "| orientation | seconds | peak MiB | normals step s | points | flipped fraction | mean angle to truth (deg) |"
+echo "|---|---|---|---|---|---|---|"
+for orient in propagation mst; do
+  read -r s mem < <(measure $apo -q ingest "$scan" -o "$out/ingest-$orient" --force-normals --orient "$orient")
+  j="$out/ingest-$orient/ingest.json"
+  accuracy=$(build/orientation_accuracy "$scan" "$out/ingest-$orient/scan.ply")
+  flipped=$(echo "$accuracy" | sed -E 's/.*flipped ([0-9.]+);.*/\1/')
+  angle=$(echo "$accuracy" | sed -E 's/.*mean angle ([0-9.]+) deg.*/\1/')
+  echo "| $orient | $s | $mem | $(json "$j" '"%.2f" % j["seconds"]["normals"]') | $(json "$j" 'j["counts"]["points_out"]') | $flipped | $angle |"
+done
+echo
+
+echo "### Meshes wound inward (apo run, defaults)"
+echo
+echo "| input | flipped pieces / pieces | APO mean error (deg) | m alone (deg) | silhouette mismatch |"
+echo "|---|---|---|---|---|"
+for name in bunny00; do
+  src=datasets/cgal/meshes/$name.off
+  inward="$out/${name}_inward.off"
+  # Every face's winding reversed: "3 a b c" -> "3 a c b".
+  awk 'NR == 1 || NR == 2 { print; next } NF == 4 && $1 == 3 { print $1, $2, $4, $3; next } { print }' "$src" >"$inward"
+  for input in "$src" "$inward"; do
+    run="$out/run-$(basename "$input" .off)"
+    $apo -q run "$input" -o "$run" >>"$out/log.txt" 2>&1 || true
+    m="$run/manifest.json"
+    echo "| $(basename "$input") | $(json "$m" '"%d / %d" % (j["results"]["ingest"]["face_orientation"]["flipped_pieces"], j["results"]["ingest"]["face_orientation"]["pieces"])') | $(json "$m" '"%.2f" % j["results"]["render"]["overall"]["apo"]["mean"]') | $(json "$m" '"%.2f" % j["results"]["render"]["overall"]["baseline"]["mean"]') | $(json "$m" '"%.3f" % j["results"]["render"]["overall"]["apo"].get("silhouette_mismatch", float("nan"))') |"
+  done
+done

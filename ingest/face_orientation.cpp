@@ -1,0 +1,178 @@
+#include "ingest/face_orientation.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <numeric>
+#include <utility>
+#include <vector>
+
+namespace apo::faces {
+namespace {
+
+// Directions and rays per direction of the visibility vote: 64 x 48^2 =
+// 147,456 rays, a few tens of milliseconds with Embree.
+constexpr int kDirections = 64;
+constexpr int kRaysPerSide = 48;
+// An open piece needs this many rays to reach it for a decision, and is
+// flipped only when its back is seen this many times as often as its front:
+// a lone sheet (a terrain, one range scan) is seen from both sides about
+// equally and stays as it is; the inward sheets of a multi-view soup show
+// their back to nearly every ray.
+constexpr std::uint64_t kMinVotes = 8;
+constexpr std::uint64_t kClearMajority = 2;
+
+// Component of each triangle (triangles sharing a vertex are connected),
+// numbered in the order of their first triangle.
+std::vector<std::uint32_t> triangleComponents(const Scan& mesh, std::uint32_t& count) {
+  std::vector<std::uint32_t> parent(mesh.points.size());
+  std::iota(parent.begin(), parent.end(), 0u);
+  auto root = [&](std::uint32_t i) {
+    while (parent[i] != i) i = parent[i] = parent[parent[i]];
+    return i;
+  };
+  for (const Triangle& t : mesh.triangles)
+    for (int corner = 1; corner < 3; ++corner) {
+      const std::uint32_t a = root(t[0]), b = root(t[corner]);
+      if (a != b) parent[std::max(a, b)] = std::min(a, b);
+    }
+  std::vector<std::uint32_t> label(mesh.points.size(), ~0u);
+  std::vector<std::uint32_t> component(mesh.triangles.size());
+  count = 0;
+  for (std::size_t i = 0; i < mesh.triangles.size(); ++i) {
+    std::uint32_t& id = label[root(mesh.triangles[i][0])];
+    if (id == ~0u) id = count++;
+    component[i] = id;
+  }
+  return component;
+}
+
+// Whether each component is closed: every undirected edge used by exactly
+// two of its triangles.
+std::vector<char> closedComponents(const Scan& mesh, const std::vector<std::uint32_t>& component, std::uint32_t count) {
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> edges;  // (edge key, component)
+  edges.reserve(3 * mesh.triangles.size());
+  for (std::size_t i = 0; i < mesh.triangles.size(); ++i) {
+    const Triangle& t = mesh.triangles[i];
+    for (int k = 0; k < 3; ++k) {
+      const std::uint64_t a = t[k], b = t[(k + 1) % 3];
+      edges.emplace_back(std::min(a, b) << 32 | std::max(a, b), component[i]);
+    }
+  }
+  std::sort(edges.begin(), edges.end());
+  std::vector<char> closed(count, 1);
+  for (std::size_t i = 0; i < edges.size();) {
+    std::size_t j = i;
+    while (j < edges.size() && edges[j].first == edges[i].first) ++j;
+    if (j - i != 2) closed[edges[i].second] = 0;
+    i = j;
+  }
+  return closed;
+}
+
+// Six times the signed volume of each component, about its own first vertex
+// (for precision far from zero).
+std::vector<double> signedVolumes(const Scan& mesh, const std::vector<std::uint32_t>& component, std::uint32_t count) {
+  std::vector<double> volume(count, 0.0);
+  std::vector<Eigen::Vector3d> anchor(count);
+  std::vector<char> anchored(count, 0);
+  const auto& p = mesh.points.positions;
+  for (std::size_t i = 0; i < mesh.triangles.size(); ++i) {
+    const Triangle& t = mesh.triangles[i];
+    const std::uint32_t c = component[i];
+    if (!anchored[c]) {
+      anchor[c] = p[t[0]].cast<double>();
+      anchored[c] = 1;
+    }
+    const Eigen::Vector3d a = p[t[0]].cast<double>() - anchor[c], b = p[t[1]].cast<double>() - anchor[c],
+                          d = p[t[2]].cast<double>() - anchor[c];
+    volume[c] += a.dot(b.cross(d));
+  }
+  return volume;
+}
+
+// Fibonacci directions on the unit sphere.
+std::vector<Vec3f> sphereDirections(int count) {
+  std::vector<Vec3f> directions;
+  const double golden = std::numbers::pi * (3.0 - std::sqrt(5.0));
+  for (int i = 0; i < count; ++i) {
+    const double z = 1.0 - (2.0 * i + 1.0) / count;
+    const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
+    directions.emplace_back(static_cast<float>(r * std::cos(golden * i)), static_cast<float>(r * std::sin(golden * i)),
+                            static_cast<float>(z));
+  }
+  return directions;
+}
+
+struct Votes {
+  std::uint64_t front = 0, back = 0;
+};
+
+// For each component, how many rays from outside the bounding sphere first
+// meet it on the side its winding calls front, and how many on the back.
+std::vector<Votes> visibilityVotes(const Scan& mesh, const RayCaster& caster, const std::vector<std::uint32_t>& component,
+                                   std::uint32_t count) {
+  const Aabb box = boundingBox(mesh.points.positions);
+  const Vec3f centre = 0.5f * (box.min + box.max);
+  const float radius = std::max(0.5f * box.diagonal(), 1e-12f);
+  std::vector<Votes> votes(count);
+  std::vector<Ray> rays;
+  std::vector<RayHit> hits;
+  for (const Vec3f& d : sphereDirections(kDirections)) {
+    const Vec3f u = d.unitOrthogonal(), v = d.cross(u);
+    rays.clear();
+    for (int i = 0; i < kRaysPerSide; ++i)
+      for (int j = 0; j < kRaysPerSide; ++j) {
+        const float s = radius * (2.0f * (static_cast<float>(i) + 0.5f) / kRaysPerSide - 1.0f);
+        const float t = radius * (2.0f * (static_cast<float>(j) + 0.5f) / kRaysPerSide - 1.0f);
+        Ray ray;
+        ray.origin = centre + 2.0f * radius * d + s * u + t * v;
+        ray.direction = -d;
+        rays.push_back(ray);
+      }
+    caster.intersect(rays, hits);
+    for (const RayHit& hit : hits) {
+      if (!hit.hit()) continue;
+      Votes& vote = votes[component[hit.primitive]];
+      // The ray travels along -d: it sees the front when the normal faces d.
+      (hit.geometricNormal.dot(d) > 0.0f ? vote.front : vote.back) += 1;
+    }
+  }
+  return votes;
+}
+
+}  // namespace
+
+FaceOrientation orientFacesOutward(Scan& mesh, const RayCaster& caster) {
+  FaceOrientation result;
+  if (!mesh.isMesh()) return result;
+  std::uint32_t count = 0;
+  const std::vector<std::uint32_t> component = triangleComponents(mesh, count);
+  result.components = count;
+  const std::vector<char> closed = closedComponents(mesh, component, count);
+  const std::vector<double> volume = signedVolumes(mesh, component, count);
+  const bool anyOpen = std::find(closed.begin(), closed.end(), 0) != closed.end();
+  const std::vector<Votes> votes = anyOpen ? visibilityVotes(mesh, caster, component, count) : std::vector<Votes>(count);
+
+  std::vector<char> flip(count, 0);
+  for (std::uint32_t c = 0; c < count; ++c) {
+    if (closed[c]) {
+      ++result.byVolume;
+      flip[c] = volume[c] < 0.0;
+    } else if (votes[c].front + votes[c].back >= kMinVotes) {
+      ++result.byVisibility;
+      flip[c] = votes[c].back > kClearMajority * votes[c].front;
+    } else {
+      ++result.undecided;
+    }
+    result.flippedComponents += flip[c];
+  }
+  for (std::size_t i = 0; i < mesh.triangles.size(); ++i)
+    if (flip[component[i]]) {
+      std::swap(mesh.triangles[i][1], mesh.triangles[i][2]);
+      ++result.flippedTriangles;
+    }
+  return result;
+}
+
+}  // namespace apo::faces

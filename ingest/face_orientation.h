@@ -1,0 +1,32 @@
+// Internal to ingest: meshes whose faces are wound inward (the whole mesh, a
+// piece, or one range scan of a soup: some converters of range grids write
+// them so) turned outward, piece by piece, before anything else sees them.
+#pragma once
+
+#include "core/error.h"
+#include "core/geometry.h"
+#include "core/ray_caster.h"
+
+#include <cstdint>
+
+namespace apo::faces {
+
+struct FaceOrientation {
+  std::uint64_t components = 0;         // pieces (triangles connected through shared vertices)
+  std::uint64_t flippedComponents = 0;  // pieces found wound inward and flipped
+  std::uint64_t flippedTriangles = 0;
+  std::uint64_t byVolume = 0;           // closed pieces decided by their signed volume
+  std::uint64_t byVisibility = 0;       // open pieces decided by which side rays from outside see
+  std::uint64_t undecided = 0;          // open pieces no ray from outside reached (left as they are)
+};
+
+// Decides each piece's side and flips the inward ones (every triangle's
+// winding reversed): a closed piece (every edge shared by exactly two of its
+// triangles) is inward when its signed volume is negative; an open piece
+// (a range scan, a terrain) when rays from 64 directions outside the mesh,
+// cast through `caster` (built over `mesh` as it is), see the back of its
+// triangles more than twice as often as the front (a lone sheet, seen from
+// both sides alike, stays as it is). Deterministic.
+FaceOrientation orientFacesOutward(Scan& mesh, const RayCaster& caster);
+
+}  // namespace apo::faces
