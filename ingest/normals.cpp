@@ -4,18 +4,28 @@
 #include "adapters/flann/flann_search.h"
 #include "adapters/pcl/pcl_points.h"
 
+#include "core/timing.h"
+
 #include <Eigen/Eigenvalues>
+#include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <cmath>
 #include <numeric>
-#include <queue>
+#include <array>
 #include <tuple>
 
 namespace apo::normals {
 namespace {
 
 constexpr std::size_t kSubsampleSize = 2000;
+// Neighbours of each point in the orientation graph. CGAL's MST takes
+// max(k, 12) (k of the normals); the propagation takes 12 whatever k is:
+// on a 1M-point scan with k = 48 it oriented every normal the same way with
+// 12 (0 flipped against the true normals) in 6 s and 0.4 GiB, and in 16 s
+// and 0.7 GiB with 24 (docs/benchmarks.md, "Raw acquisitions").
+constexpr int kMinMstNeighbours = 12;
+constexpr int kPropagationNeighbours = 12;
 constexpr double kMinPlanarity = 0.25;  // median lambda1/lambda2 of a 2-D patch
 
 // Eigenvalues (ascending) of the covariance of the first k neighbours.
@@ -183,32 +193,65 @@ std::vector<std::vector<std::uint32_t>> graphComponents(const Adjacency& graph, 
   return components;
 }
 
+// Prim's frontier: edges in 256 buckets of weight (1 - |n_i . n_j|, in
+// [0, 1]), first in first out within a bucket. Constant time per edge where
+// a binary heap took log n: the tree is a minimum spanning tree to within a
+// 256th of the weight range, which is all the propagation needs.
+class BucketQueue {
+ public:
+  static constexpr int kBuckets = 256;
+  struct Edge {
+    std::uint32_t to, from;
+  };
+
+  void push(float weight, Edge edge) {
+    const int bucket = std::clamp(static_cast<int>(weight * kBuckets), 0, kBuckets - 1);
+    buckets_[bucket].push_back(edge);
+    lowest_ = std::min(lowest_, bucket);
+    ++size_;
+  }
+  bool empty() const { return size_ == 0; }
+  Edge pop() {
+    while (read_[lowest_] == buckets_[lowest_].size()) {
+      buckets_[lowest_].clear();
+      read_[lowest_] = 0;
+      ++lowest_;
+    }
+    --size_;
+    return buckets_[lowest_][read_[lowest_]++];
+  }
+
+ private:
+  std::array<std::vector<Edge>, kBuckets> buckets_;
+  std::array<std::size_t, kBuckets> read_{};
+  int lowest_ = kBuckets - 1;
+  std::size_t size_ = 0;
+};
+
 // Hoppe et al.'s propagation (the rule CGAL's MST orientation follows, in a
 // fraction of its time and memory): from the component's highest point,
 // whose normal is turned up, visit the points in the order of a minimum
-// spanning tree of the graph weighted by 1 - |n_i . n_j| (Prim, lazy binary
-// heap, ties broken by index), turning each normal to agree with the one it
-// was reached from. Nearly parallel normals are passed on first, so a flip
-// crosses sharp creases and thin sheets last.
+// spanning tree of the graph weighted by 1 - |n_i . n_j| (Prim over a bucket
+// queue), turning each normal to agree with the one it was reached from.
+// Nearly parallel normals are passed on first, so a flip crosses sharp
+// creases and thin sheets last.
 void propagateFromHighest(const Adjacency& graph, const std::vector<Vec3f>& points, std::vector<Vec3f>& normals,
                           const std::vector<std::uint32_t>& component, std::vector<char>& visited) {
   const std::uint32_t seed = *std::max_element(component.begin(), component.end(), [&](std::uint32_t a, std::uint32_t b) {
     return std::tie(points[a].z(), b) < std::tie(points[b].z(), a);
   });
   if (normals[seed].z() < 0.0f) normals[seed] = -normals[seed];
-  using Edge = std::tuple<float, std::uint32_t, std::uint32_t>;  // weight, to, from
-  std::priority_queue<Edge, std::vector<Edge>, std::greater<Edge>> frontier;
+  BucketQueue frontier;
   auto pushEdgesOf = [&](std::uint32_t from) {
     visited[from] = 1;
     for (std::uint64_t e = graph.offsets[from]; e < graph.offsets[from + 1]; ++e) {
       const std::uint32_t to = graph.adjacency[e];
-      if (!visited[to]) frontier.emplace(1.0f - std::abs(normals[from].dot(normals[to])), to, from);
+      if (!visited[to]) frontier.push(1.0f - std::abs(normals[from].dot(normals[to])), {to, from});
     }
   };
   pushEdgesOf(seed);
   while (!frontier.empty()) {
-    const auto [weight, to, from] = frontier.top();
-    frontier.pop();
+    const auto [to, from] = frontier.pop();
     if (visited[to]) continue;
     if (normals[from].dot(normals[to]) < 0.0f) normals[to] = -normals[to];
     pushEdgesOf(to);
@@ -287,6 +330,7 @@ Result<OrientedNormals> estimateOrientedNormals(const std::vector<Vec3f>& points
                                                 const std::optional<Viewpoint>& viewpoint, int k,
                                                 OrientationMethod orientation) {
   OrientedNormals result;
+  Stopwatch phase;
   if (k > 0) {
     result.neighbours = k;
   } else {
@@ -294,10 +338,14 @@ Result<OrientedNormals> estimateOrientedNormals(const std::vector<Vec3f>& points
     if (!chosen) return chosen.error();
     result.neighbours = *chosen;
   }
+  spdlog::info("ingest: k = {} for normals{} in {:.2f} s", result.neighbours, k > 0 ? " (given)" : " (chosen)", phase.seconds());
+  phase = Stopwatch();
   // PCL turns every normal towards the viewpoint it is given.
   auto estimated = pcl_adapter::estimateNormals(points, result.neighbours, viewpoint ? viewpoint->origin : Vec3f::Zero());
   if (!estimated) return estimated.error();
   result.normals = std::move(estimated).value();
+  spdlog::info("ingest: PCA normals of {} points in {:.2f} s", points.size(), phase.seconds());
+  phase = Stopwatch();
   if (viewpoint) {
     result.orientation = "viewpoint";
     return result;
@@ -307,11 +355,12 @@ Result<OrientedNormals> estimateOrientedNormals(const std::vector<Vec3f>& points
   std::vector<Vec3f> defined = result.normals;
   for (Vec3f& n : defined)
     if (!n.allFinite()) n = Vec3f::UnitZ();
-  const int graphK = std::max(result.neighbours, 12);
-  const Result<IslandOrientation> islands = orientation == OrientationMethod::CgalMst
-                                                ? orientByIslands(points, defined, graphK)
-                                                : orientByPropagation(points, defined, graphK);
+  const Result<IslandOrientation> islands =
+      orientation == OrientationMethod::CgalMst
+          ? orientByIslands(points, defined, std::max(result.neighbours, kMinMstNeighbours))
+          : orientByPropagation(points, defined, kPropagationNeighbours);
   if (!islands) return islands.error();
+  spdlog::info("ingest: normals oriented by {} in {:.2f} s", result.orientation, phase.seconds());
   for (std::size_t i = 0; i < points.size(); ++i)
     if (result.normals[i].allFinite()) result.normals[i] = defined[i];
   result.islands = islands->islands;
