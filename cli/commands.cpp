@@ -148,6 +148,9 @@ void addSimulateScanCommand(CLI::App& app, int& exitCode) {
       ->capture_default_str();
   sub->add_option("--seed", o.seed, "Random seed")->check(CLI::NonNegativeNumber)->capture_default_str();
   sub->add_flag("--normals", o.withNormals, "Write the true surface normals too");
+  sub->add_flag("--mesh", o.asMesh,
+                "Write each view's range grid triangulated, all views in one soup of overlapping sheets (as scanner "
+                "software writes a set of range scans)");
   sub->callback([command, &exitCode] { exitCode = guarded([&] { return runSimulateScan(*command); }); });
 }
 

@@ -35,6 +35,7 @@ void addGroup(CLI::App& app, const std::string& group, Add&& add) {
 void IngestArguments::apply() {
   if (sensor.size() == 3) options.sensorPosition = Vec3f(sensor[0], sensor[1], sensor[2]);
   options.orientation = orient == "mst" ? OrientationMethod::CgalMst : OrientationMethod::Propagation;
+  options.meshInput = meshInput == "surface" ? MeshInput::Surface : meshInput == "scans" ? MeshInput::Scans : MeshInput::Auto;
 }
 
 void SimplifyArguments::apply() {
@@ -60,6 +61,11 @@ void addIngestOptions(CLI::App& app, IngestArguments& arguments) {
   app.add_flag("--force-normals", o.forceNormalEstimation, "Re-estimate normals even when the file has them");
   app.add_option("--sensor", arguments.sensor, "Scanner position X Y Z: estimated normals face it (overrides the file's viewpoint)")
       ->expected(3);
+  app.add_option("--mesh-input", arguments.meshInput,
+                 "A mesh is one surface (M as it is) or a set of overlapping range scans (its points reconstructed); "
+                 "auto decides from the overlap of its pieces")
+      ->check(CLI::IsMember({"auto", "surface", "scans"}))
+      ->capture_default_str();
   app.add_flag("!--keep-winding", o.orientFaces,
                "Keep mesh faces as wound in the file (by default pieces wound inward are flipped)");
   app.add_option("--orient", arguments.orient,

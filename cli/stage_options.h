@@ -22,6 +22,7 @@ struct IngestArguments {
   IngestOptions options;
   std::vector<float> sensor;  // X Y Z, or empty
   std::string orient = "propagation";
+  std::string meshInput = "auto";
   void apply();
 };
 

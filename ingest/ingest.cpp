@@ -8,6 +8,7 @@
 #include "core/timing.h"
 #include "ingest/cleaning.h"
 #include "ingest/face_orientation.h"
+#include "ingest/mesh_input.h"
 #include "ingest/normals.h"
 
 #include <fmt/format.h>
@@ -25,6 +26,15 @@ namespace {
 constexpr std::size_t kMinPointsForNormals = 4;
 
 }  // namespace
+
+std::string meshInputName(MeshInput input) {
+  switch (input) {
+    case MeshInput::Auto: return "auto";
+    case MeshInput::Surface: return "surface";
+    case MeshInput::Scans: return "scans";
+  }
+  return "auto";
+}
 
 std::string orientationMethodName(OrientationMethod method) {
   return method == OrientationMethod::CgalMst ? "mst" : "propagation";
@@ -88,6 +98,30 @@ Status orientMeshFaces(Scan& scan, IngestReport& report) {
     spdlog::warn("ingest: {} of {} mesh pieces ({} triangles) were wound inward and have been flipped",
                  found.flippedComponents, found.components, found.flippedTriangles);
     scan.points.normals.clear();
+  }
+  return okStatus();
+}
+
+// One surface, or overlapping range scans whose points become the scan
+// (with the normals of their faces, already turned outward).
+Status decideMeshInput(Scan& scan, const IngestOptions& options, IngestReport& report) {
+  const auto evidence = mesh_input::judge(scan);
+  if (!evidence) return evidence.error();
+  const bool scans = options.meshInput == MeshInput::Scans ||
+                     (options.meshInput == MeshInput::Auto && evidence->looksLikeScans);
+  report.meshInput = {true,
+                      meshInputName(options.meshInput),
+                      scans ? "scans" : "surface",
+                      evidence->pieces,
+                      evidence->boundaryEdgeFraction,
+                      evidence->overlapFraction,
+                      evidence->medianEdgeLength};
+  if (scans) {
+    spdlog::warn("ingest: the mesh is {} overlapping pieces ({:.0f}% of its vertices lie within {} edge lengths of "
+                 "another piece): read as a set of range scans, its points are reconstructed into M "
+                 "(--mesh-input surface keeps it as M)",
+                 evidence->pieces, 100.0 * evidence->overlapFraction, mesh_input::kOverlapEdgeLengths);
+    scan.triangles.clear();
   }
   return okStatus();
 }
@@ -226,6 +260,7 @@ Result<IngestResult> ingestScan(const fs::path& path, const IngestOptions& optio
       return badInput("{}: no valid triangle remains after cleaning ({} read)", path.string(), report.trianglesIn);
     if (options.orientFaces) APO_RETURN_IF_ERROR(orientMeshFaces(scan, report));
     meshNormals(scan, report);
+    APO_RETURN_IF_ERROR(decideMeshInput(scan, options, report));
   } else {
     APO_RETURN_IF_ERROR(cleanPointCloud(scan, options, report, path));
     APO_RETURN_IF_ERROR(pointCloudNormals(scan, options, report, path));
@@ -271,6 +306,14 @@ std::string ingestReportJson(const IngestReport& report) {
   // The local frame: file coordinates = origin + the coordinates of every
   // output (docs/ingest.md, "Georeferenced coordinates").
   json["origin"] = {report.origin[0], report.origin[1], report.origin[2]};
+  const auto& mi = report.meshInput;
+  json["mesh_input"] = !mi.checked ? nlohmann::ordered_json(nullptr)
+                                   : nlohmann::ordered_json{{"requested", mi.requested},
+                                                            {"decision", mi.decision},
+                                                            {"pieces", mi.pieces},
+                                                            {"boundary_edge_fraction", mi.boundaryEdgeFraction},
+                                                            {"overlap_fraction", mi.overlapFraction},
+                                                            {"median_edge_length", mi.medianEdgeLength}};
   json["read_notes"] = report.readNotes;
   const auto& f = report.faceOrientation;
   json["face_orientation"] = !f.checked ? nlohmann::ordered_json(nullptr)

@@ -53,6 +53,12 @@ Status writePlyAscii(const std::filesystem::path& path, const Scan& scan);
 enum class OrientationMethod { Propagation, CgalMst };
 std::string orientationMethodName(OrientationMethod method);  // "propagation", "mst"
 
+// What a mesh input is: decided from the data (auto), one surface (adopted
+// as M), or a set of overlapping range scans (its vertices, with the faces'
+// normals, reconstructed like a point cloud).
+enum class MeshInput { Auto, Surface, Scans };
+std::string meshInputName(MeshInput input);  // "auto", "surface", "scans"
+
 struct IngestOptions {
   bool mergeDuplicates = true;      // exact duplicate points / vertices merged
   bool removeOutliers = false;      // PCL StatisticalOutlierRemoval
@@ -66,6 +72,7 @@ struct IngestOptions {
   OrientationMethod orientation = OrientationMethod::Propagation;
   // Mesh pieces wound inward are flipped (docs/ingest.md); false: kept as read.
   bool orientFaces = true;
+  MeshInput meshInput = MeshInput::Auto;
 };
 
 // Usage error naming the option when one is out of range.
@@ -100,6 +107,13 @@ struct IngestReport {
     std::uint64_t components = 0, flippedComponents = 0, flippedTriangles = 0;
     std::uint64_t byVolume = 0, byVisibility = 0, undecided = 0;
   } faceOrientation;
+  // Meshes: one surface or a set of scans, and the figures behind it.
+  struct MeshInputDecision {
+    bool checked = false;
+    std::string requested, decision;  // "auto" / "surface" / "scans"; "surface" / "scans"
+    std::uint64_t pieces = 0;
+    double boundaryEdgeFraction = 0.0, overlapFraction = 0.0, medianEdgeLength = 0.0;
+  } meshInput;
   std::array<double, 3> origin = {0.0, 0.0, 0.0};  // Scan::origin: the local frame
   std::vector<std::string> readNotes;               // what the reader skipped or converted
   double readSeconds = 0.0;
@@ -138,6 +152,10 @@ struct SimulateScanOptions {
   double misregistration = 0.0002; // per-view rigid offset, fraction of the diagonal (and radians)
   std::uint64_t seed = 1;
   bool withNormals = false;        // also write the true surface normals of the hits
+  // Each view's range grid triangulated, as scanner software writes a set of
+  // range scans: one soup of overlapping sheets (no vertex shared between
+  // views); cells across depth jumps and grazing cells are left out.
+  bool asMesh = false;
 };
 
 // Usage error naming the option when one is out of range.

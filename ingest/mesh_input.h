@@ -1,0 +1,34 @@
+// Internal to ingest: is a mesh one surface, or a set of overlapping range
+// scans stored as one soup (each scan's grid triangulated)? Simplifying such
+// a soup gives a self-intersecting, faceted m; its points, reconstructed like
+// any scan, give a good one.
+#pragma once
+
+#include "core/error.h"
+#include "core/geometry.h"
+
+#include <cstdint>
+
+namespace apo::mesh_input {
+
+// A vertex counts as overlapping when another piece has a vertex within this
+// many median edge lengths of it: two scans of the same surface, registered,
+// lie within a few sample spacings of each other.
+inline constexpr double kOverlapEdgeLengths = 3.0;
+// The mesh is a set of scans when at least this fraction of its vertices
+// overlap another piece (a mesh of separate parts only touches at seams).
+inline constexpr double kScansOverlapFraction = 0.10;
+
+struct Evidence {
+  std::uint64_t pieces = 0;           // triangles connected through shared vertices
+  double boundaryEdgeFraction = 0.0;  // edges with one triangle, of all edges
+  double overlapFraction = 0.0;       // vertices within kOverlapEdgeLengths of another piece
+  double medianEdgeLength = 0.0;
+  bool looksLikeScans = false;
+};
+
+// The figures and the verdict (deterministic). Internal error when the k-NN
+// search fails.
+Result<Evidence> judge(const Scan& mesh);
+
+}  // namespace apo::mesh_input

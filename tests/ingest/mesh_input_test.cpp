@@ -1,0 +1,103 @@
+// Meshes that are sets of overlapping range scans (simulated: each view's
+// range grid triangulated into one soup, as scanner software writes them)
+// against meshes that are one surface.
+#include "ingest/ingest.h"
+#include "ingest/mesh_input.h"
+
+#include "adapters/embree/embree_ray_caster.h"
+#include "tests/test_support.h"
+
+#include <gtest/gtest.h>
+
+namespace apo {
+namespace {
+namespace fs = std::filesystem;
+
+// A soup of `views` triangulated range grids of a unit icosphere.
+Scan rangeScanSoup(int views) {
+  const Scan sphere = test::makeIcosphere(5);
+  const auto caster = makeEmbreeMeshCaster(sphere).value();
+  SimulateScanOptions options;
+  options.views = views;
+  options.raysPerSide = 80;
+  options.asMesh = true;
+  return simulateScan(sphere, *caster, options).value().scan;
+}
+
+Scan flipped(Scan mesh) {
+  for (Triangle& t : mesh.triangles) std::swap(t[1], t[2]);
+  return mesh;
+}
+
+IngestResult ingestAs(const Scan& mesh, const IngestOptions& options = {}) {
+  const fs::path path = test::freshTempDir() / "input.ply";
+  EXPECT_TRUE(writePly(path, mesh).ok());
+  auto result = ingestScan(path, options);
+  EXPECT_TRUE(result.ok()) << result.error().message;
+  return std::move(result).value();
+}
+
+TEST(SimulateScanAsMesh, EachViewIsItsOwnSheetFacingItsScanner) {
+  const Scan soup = rangeScanSoup(6);
+  ASSERT_GT(soup.triangles.size(), 10000u);
+  const auto evidence = mesh_input::judge(soup).value();
+  EXPECT_GE(evidence.pieces, 6u);  // no vertex shared between views (a rim cell may stand apart)
+  EXPECT_LE(evidence.pieces, 12u);
+  EXPECT_GT(evidence.boundaryEdgeFraction, 0.0);
+  // Wound outward: the sphere's centre is behind every triangle.
+  for (const Triangle& t : soup.triangles) {
+    const auto& p = soup.points.positions;
+    ASSERT_GT((p[t[1]] - p[t[0]]).cross(p[t[2]] - p[t[0]]).dot(p[t[0]]), 0.0f);
+  }
+}
+
+TEST(MeshInput, AnOverlappingSoupIsReadAsScansAndItsPointsKeepOutwardNormals) {
+  for (bool inward : {false, true}) {
+    SCOPED_TRACE(inward ? "wound inward" : "wound outward");
+    const Scan soup = inward ? flipped(rangeScanSoup(6)) : rangeScanSoup(6);
+    const IngestResult result = ingestAs(soup);
+    const auto& decision = result.report.meshInput;
+    EXPECT_EQ(decision.decision, "scans");
+    EXPECT_GE(decision.pieces, 6u);
+    EXPECT_GT(decision.overlapFraction, mesh_input::kScansOverlapFraction);
+    EXPECT_FALSE(result.scan.isMesh());
+    EXPECT_EQ(result.report.faceOrientation.flippedComponents, inward ? decision.pieces : 0u);
+    ASSERT_TRUE(result.scan.points.hasNormals());
+    std::size_t outward = 0;
+    for (std::size_t i = 0; i < result.scan.points.size(); ++i)
+      outward += result.scan.points.normals[i].dot(result.scan.points.positions[i]) > 0.0f;
+    EXPECT_EQ(outward, result.scan.points.size());
+  }
+}
+
+TEST(MeshInput, OneSurfaceAndSeparatePartsStayMeshes) {
+  Scan parts = test::makeIcosphere(4);
+  const Scan second = test::makeIcosphere(4);
+  const auto base = static_cast<std::uint32_t>(parts.points.size());
+  for (const Vec3f& p : second.points.positions) parts.points.positions.push_back(p + Vec3f(2.5f, 0, 0));
+  for (const Triangle& t : second.triangles) parts.triangles.push_back({t[0] + base, t[1] + base, t[2] + base});
+  for (const Scan& mesh : {test::makeIcosphere(5), parts}) {
+    const IngestResult result = ingestAs(mesh);
+    EXPECT_EQ(result.report.meshInput.decision, "surface");
+    EXPECT_EQ(result.report.meshInput.overlapFraction, 0.0);
+    EXPECT_TRUE(result.scan.isMesh());
+  }
+}
+
+TEST(MeshInput, TheDecisionCanBeForcedEitherWay) {
+  IngestOptions surface;
+  surface.meshInput = MeshInput::Surface;
+  const IngestResult kept = ingestAs(rangeScanSoup(4), surface);
+  EXPECT_EQ(kept.report.meshInput.decision, "surface");
+  EXPECT_EQ(kept.report.meshInput.requested, "surface");
+  EXPECT_TRUE(kept.scan.isMesh());
+  IngestOptions scans;
+  scans.meshInput = MeshInput::Scans;
+  const IngestResult points = ingestAs(test::makeIcosphere(3), scans);
+  EXPECT_EQ(points.report.meshInput.decision, "scans");
+  EXPECT_FALSE(points.scan.isMesh());
+  EXPECT_TRUE(points.scan.points.hasNormals());
+}
+
+}  // namespace
+}  // namespace apo
