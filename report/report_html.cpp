@@ -655,6 +655,29 @@ std::string row(const std::string& label, const std::string& value) {
   return "<tr><td>" + label + "</td><td class=\"n\">" + value + "</td></tr>\n";
 }
 
+// What ingest decided on its own about a mesh (surface or scans, windings
+// flipped) and about far coordinates, in words; empty when nothing to say.
+std::string ingestDecisionRows(const Json* ingest) {
+  std::string html;
+  if (const Json* input = at(ingest, {"mesh_input"}); input != nullptr && input->is_object()) {
+    const std::optional<double> overlap = numberAt(input, {"overlap_fraction"});
+    html += row("mesh read as", escaped(textAt(input, {"decision"})) +
+                                    fmt::format(" ({} pieces, {} of the vertices within 3 edge lengths of another piece)",
+                                                count(numberAt(input, {"pieces"})),
+                                                overlap ? fmt::format("{:.0f}%", 100.0 * *overlap) : kNone));
+  }
+  if (const Json* faces = at(ingest, {"face_orientation"}); faces != nullptr && faces->is_object() &&
+                                                             numberAt(faces, {"flipped_triangles"}).value_or(0) > 0)
+    html += row("faces wound inward, flipped", count(numberAt(faces, {"flipped_triangles"})) + " triangles in " +
+                                                   count(numberAt(faces, {"flipped_pieces"})) + " pieces");
+  if (const Json* origin = at(ingest, {"origin"}); origin != nullptr && origin->is_array() && origin->size() == 3 &&
+                                                   (*origin != Json::array({0, 0, 0})))
+    html += row("local frame origin (file coordinates = origin + outputs')", escaped(anyAsText(*origin)));
+  if (const Json* notes = at(ingest, {"read_notes"}); notes != nullptr && notes->is_array())
+    for (const Json& note : *notes) html += row("reader note", escaped(text(&note)));
+  return html;
+}
+
 std::string meshesSection(const Json& manifest) {
   std::string html = "<section id=\"meshes\">\n<h2>Scan and meshes</h2>\n<div class=\"grid2\">\n";
   const Json* ingest = results(manifest, "ingest");
@@ -666,7 +689,9 @@ std::string meshesSection(const Json& manifest) {
     html += row("points read", count(numberAt(ingest, {"counts", "points_in"})));
     html += row("points after cleaning", count(numberAt(ingest, {"counts", "points_out"})));
     html += row("triangles read", count(numberAt(ingest, {"counts", "triangles_in"})));
-    html += row("normals", escaped(textAt(ingest, {"normals", "source"})));
+    html += row("normals", escaped(textAt(ingest, {"normals", "source"})) + ", oriented by " +
+                               escaped(textAt(ingest, {"normals", "orientation"})));
+    html += ingestDecisionRows(ingest);
     html += row("bounding box diagonal", fixed(numberAt(ingest, {"bounding_box", "diagonal"}), 4));
     html += "</table>\n";
   } else {

@@ -164,6 +164,29 @@ TEST(ReportHtml, ShowsTheFiguresOfEverySection) {
   EXPECT_THAT(html, Not(HasSubstr("not run")));
 }
 
+// What ingest decided on its own is shown: a soup read as scans, faces
+// flipped, the local frame's origin, the readers' notes (escaped).
+TEST(ReportHtml, ShowsTheDecisionsIngestTookOnItsOwn) {
+  Json m = succeededManifest("statue_scans.ply", 1);
+  m["results"]["ingest"]["normals"] = {{"source", "computed_from_faces"}, {"orientation", "faces"}};
+  m["results"]["ingest"]["mesh_input"] = {{"requested", "auto"}, {"decision", "scans"}, {"pieces", 12},
+                                          {"overlap_fraction", 0.873}};
+  m["results"]["ingest"]["face_orientation"] = {{"pieces", 12}, {"flipped_pieces", 3}, {"flipped_triangles", 210455}};
+  m["results"]["ingest"]["origin"] = {512000.0, 5403000.0, 300.0};
+  m["results"]["ingest"]["read_notes"] = {"element 'edge' (2 items) skipped <b>"};
+  const std::string html = qaReportHtml(m);
+  EXPECT_THAT(html, HasSubstr("computed_from_faces, oriented by faces"));
+  EXPECT_THAT(html, HasSubstr("scans (12 pieces, 87% of the vertices within 3 edge lengths of another piece)"));
+  EXPECT_THAT(html, HasSubstr("210,455 triangles in 3 pieces"));
+  EXPECT_THAT(html, HasSubstr("[512000.0,5403000.0,300.0]"));
+  EXPECT_THAT(html, HasSubstr("element &#39;edge&#39; (2 items) skipped &lt;b&gt;"));
+  // Nothing decided, nothing said.
+  const std::string plain = qaReportHtml(succeededManifest("bunny.ply", 1));
+  EXPECT_THAT(plain, Not(HasSubstr("mesh read as")));
+  EXPECT_THAT(plain, Not(HasSubstr("flipped")));
+  EXPECT_THAT(plain, Not(HasSubstr("local frame origin")));
+}
+
 TEST(ReportHtml, FailedRunShowsTheErrorAndNotRunSections) {
   const std::string html = qaReportHtml(failedAfterIngest("scan.pcd", "no point left after cleaning"));
   EXPECT_THAT(html, HasSubstr("class=\"banner bad\">failed at stage <b>reconstruct</b>: no point left after cleaning"));
