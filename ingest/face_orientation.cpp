@@ -1,5 +1,7 @@
 #include "ingest/face_orientation.h"
 
+#include "adapters/flann/flann_search.h"
+
 #include <algorithm>
 #include <cmath>
 #include <numbers>
@@ -141,9 +143,54 @@ std::vector<Votes> visibilityVotes(const Scan& mesh, const RayCaster& caster, co
   return votes;
 }
 
+Vec3f faceNormal(const Scan& mesh, const Triangle& t) {
+  const auto& p = mesh.points.positions;
+  return (p[t[1]] - p[t[0]]).cross(p[t[2]] - p[t[0]]);
+}
+
+Vec3f centroid(const Scan& mesh, const Triangle& t) {
+  const auto& p = mesh.points.positions;
+  return (p[t[0]] + p[t[1]] + p[t[2]]) / 3.0f;
+}
+
+// Pieces no ray reached (rim fragments of range grids, hidden bits) agree
+// with the decided pieces nearest to them: an area-weighted vote of their
+// triangles against the nearest decided triangle's normal (after its flip).
+// Returns how many were decided so; marks them in `flip`.
+Result<std::uint64_t> followNearestDecided(const Scan& mesh, const std::vector<std::uint32_t>& component,
+                                           const std::vector<char>& undecided, std::vector<char>& flip) {
+  std::vector<Vec3f> decidedCentroids, decidedNormals, queries;
+  std::vector<std::uint32_t> queryTriangles;
+  for (std::uint32_t i = 0; i < mesh.triangles.size(); ++i) {
+    const Triangle& t = mesh.triangles[i];
+    if (undecided[component[i]]) {
+      queries.push_back(centroid(mesh, t));
+      queryTriangles.push_back(i);
+    } else {
+      decidedCentroids.push_back(centroid(mesh, t));
+      decidedNormals.push_back(flip[component[i]] ? -faceNormal(mesh, t) : faceNormal(mesh, t));
+    }
+  }
+  if (queries.empty() || decidedCentroids.empty()) return std::uint64_t{0};
+  const auto nearest = flann_adapter::nearestIndices(decidedCentroids, queries);
+  if (!nearest) return nearest.error();
+  std::vector<double> agreement(flip.size(), 0.0);
+  for (std::size_t q = 0; q < queries.size(); ++q) {
+    const Vec3f n = faceNormal(mesh, mesh.triangles[queryTriangles[q]]);
+    agreement[component[queryTriangles[q]]] += n.dot(decidedNormals[(*nearest)[q]].normalized());
+  }
+  std::uint64_t decided = 0;
+  for (std::size_t c = 0; c < flip.size(); ++c)
+    if (undecided[c]) {
+      flip[c] = agreement[c] < 0.0;
+      ++decided;
+    }
+  return decided;
+}
+
 }  // namespace
 
-FaceOrientation orientFacesOutward(Scan& mesh, const RayCaster& caster) {
+Result<FaceOrientation> orientFacesOutward(Scan& mesh, const RayCaster& caster) {
   FaceOrientation result;
   if (!mesh.isMesh()) return result;
   std::uint32_t count = 0;
@@ -154,7 +201,7 @@ FaceOrientation orientFacesOutward(Scan& mesh, const RayCaster& caster) {
   const bool anyOpen = std::find(closed.begin(), closed.end(), 0) != closed.end();
   const std::vector<Votes> votes = anyOpen ? visibilityVotes(mesh, caster, component, count) : std::vector<Votes>(count);
 
-  std::vector<char> flip(count, 0);
+  std::vector<char> flip(count, 0), undecided(count, 0);
   for (std::uint32_t c = 0; c < count; ++c) {
     if (closed[c]) {
       ++result.byVolume;
@@ -163,8 +210,14 @@ FaceOrientation orientFacesOutward(Scan& mesh, const RayCaster& caster) {
       ++result.byVisibility;
       flip[c] = votes[c].back > kClearMajority * votes[c].front;
     } else {
-      ++result.undecided;
+      undecided[c] = 1;
     }
+  }
+  const auto byNeighbours = followNearestDecided(mesh, component, undecided, flip);
+  if (!byNeighbours) return byNeighbours.error();
+  result.byNeighbours = *byNeighbours;
+  for (std::uint32_t c = 0; c < count; ++c) {
+    result.undecided += undecided[c] && result.byNeighbours == 0;
     result.flippedComponents += flip[c];
   }
   for (std::size_t i = 0; i < mesh.triangles.size(); ++i)

@@ -17,7 +17,8 @@ struct FaceOrientation {
   std::uint64_t flippedTriangles = 0;
   std::uint64_t byVolume = 0;           // closed pieces decided by their signed volume
   std::uint64_t byVisibility = 0;       // open pieces decided by which side rays from outside see
-  std::uint64_t undecided = 0;          // open pieces no ray from outside reached (left as they are)
+  std::uint64_t byNeighbours = 0;       // open pieces no ray reached, turned like the decided pieces nearest to them
+  std::uint64_t undecided = 0;          // pieces left as they are: no ray reached them and no piece was decided
 };
 
 // Decides each piece's side and flips the inward ones (every triangle's
@@ -26,7 +27,9 @@ struct FaceOrientation {
 // (a range scan, a terrain) when rays from 64 directions outside the mesh,
 // cast through `caster` (built over `mesh` as it is), see the back of its
 // triangles more than twice as often as the front (a lone sheet, seen from
-// both sides alike, stays as it is). Deterministic.
-FaceOrientation orientFacesOutward(Scan& mesh, const RayCaster& caster);
+// both sides alike, stays as it is). A piece fewer than 8 rays reach agrees
+// with the decided triangles nearest to it. Deterministic. Internal error
+// when the nearest-triangle search fails.
+Result<FaceOrientation> orientFacesOutward(Scan& mesh, const RayCaster& caster);
 
 }  // namespace apo::faces

@@ -90,9 +90,11 @@ Status orientMeshFaces(Scan& scan, IngestReport& report) {
   Stopwatch watch;
   auto caster = makeEmbreeMeshCaster(scan);
   if (!caster) return caster.error();
-  const faces::FaceOrientation found = faces::orientFacesOutward(scan, **caster);
-  report.faceOrientation = {true,          found.components,   found.flippedComponents, found.flippedTriangles,
-                            found.byVolume, found.byVisibility, found.undecided};
+  const auto oriented = faces::orientFacesOutward(scan, **caster);
+  if (!oriented) return oriented.error();
+  const faces::FaceOrientation& found = *oriented;
+  report.faceOrientation = {true,           found.components,   found.flippedComponents, found.flippedTriangles,
+                            found.byVolume, found.byVisibility, found.byNeighbours,      found.undecided};
   report.steps.push_back({"orient_faces_outward", 0, watch.seconds()});
   if (found.flippedTriangles > 0) {
     spdlog::warn("ingest: {} of {} mesh pieces ({} triangles) were wound inward and have been flipped",
@@ -322,6 +324,7 @@ std::string ingestReportJson(const IngestReport& report) {
                                                                  {"flipped_triangles", f.flippedTriangles},
                                                                  {"decided_by_volume", f.byVolume},
                                                                  {"decided_by_visibility", f.byVisibility},
+                                                                 {"decided_by_neighbours", f.byNeighbours},
                                                                  {"undecided", f.undecided}};
   json["seconds"] = {{"read", report.readSeconds}, {"normals", report.normalSeconds}, {"total", report.totalSeconds}};
   return json.dump(2) + "\n";

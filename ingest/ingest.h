@@ -105,7 +105,7 @@ struct IngestReport {
   struct FaceOrientation {
     bool checked = false;
     std::uint64_t components = 0, flippedComponents = 0, flippedTriangles = 0;
-    std::uint64_t byVolume = 0, byVisibility = 0, undecided = 0;
+    std::uint64_t byVolume = 0, byVisibility = 0, byNeighbours = 0, undecided = 0;
   } faceOrientation;
   // Meshes: one surface or a set of scans, and the figures behind it.
   struct MeshInputDecision {

@@ -37,7 +37,7 @@ double outwardFraction(const Scan& mesh, const Vec3f& centre = Vec3f::Zero()) {
 
 FaceOrientation orient(Scan& mesh) {
   const auto caster = makeEmbreeMeshCaster(mesh).value();
-  return orientFacesOutward(mesh, *caster);
+  return orientFacesOutward(mesh, *caster).value();
 }
 
 // The triangles of `sphere` whose centroid lies within `angle` of `axis`, as
@@ -102,6 +102,29 @@ TEST(OrientFacesOutward, InwardScansOfAMultiViewSoupAreFlipped) {
     EXPECT_EQ(result.flippedComponents, allInward ? 6u : 2u);
     EXPECT_EQ(outwardFraction(soup), 1.0);
   }
+}
+
+// A fragment no ray reaches (three triangles just under a cap, wound
+// inward) turns like the decided triangles nearest to it.
+TEST(OrientFacesOutward, AFragmentNoRayReachesFollowsItsNeighbours) {
+  const Scan sphere = test::makeIcosphere(4);
+  const Vec3f axes[] = {Vec3f::UnitX(), -Vec3f::UnitX(), Vec3f::UnitY(), -Vec3f::UnitY(), Vec3f::UnitZ(), -Vec3f::UnitZ()};
+  Scan soup;
+  for (const Vec3f& axis : axes) append(soup, cap(sphere, axis, 0.3f));
+  Scan fragment = cap(sphere, Vec3f(0.6f, 0.0f, 0.8f), 0.998f);
+  dropUnreferencedVertices(fragment);
+  ASSERT_GE(fragment.triangles.size(), 1u);
+  ASSERT_LE(fragment.triangles.size(), 12u);
+  for (Vec3f& p : fragment.points.positions) p *= 0.99f;
+  append(soup, flipped(fragment));
+  dropUnreferencedVertices(soup);
+  const FaceOrientation result = orient(soup);
+  EXPECT_EQ(result.components, 7u);
+  EXPECT_EQ(result.byVisibility, 6u);
+  EXPECT_EQ(result.byNeighbours, 1u);
+  EXPECT_EQ(result.undecided, 0u);
+  EXPECT_EQ(result.flippedComponents, 1u);
+  EXPECT_EQ(outwardFraction(soup), 1.0);
 }
 
 // A lone open sheet has no inside: seen alike from both sides, it is left
