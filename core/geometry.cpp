@@ -1,5 +1,10 @@
 #include "core/geometry.h"
 
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <numeric>
+
 namespace apo {
 
 Aabb boundingBox(const std::vector<Vec3f>& positions) {
@@ -29,6 +34,45 @@ double surfaceArea(const Scan& mesh) {
   for (const Triangle& t : mesh.triangles)
     area += 0.5 * (p[t[1]] - p[t[0]]).cast<double>().cross((p[t[2]] - p[t[0]]).cast<double>()).norm();
   return area;
+}
+
+MeshPieces meshPieces(const Scan& mesh) {
+  std::vector<std::uint32_t> parent(mesh.points.size());
+  std::iota(parent.begin(), parent.end(), 0u);
+  auto root = [&](std::uint32_t i) {
+    while (parent[i] != i) i = parent[i] = parent[parent[i]];
+    return i;
+  };
+  for (const Triangle& t : mesh.triangles)
+    for (int corner = 1; corner < 3; ++corner) {
+      const std::uint32_t a = root(t[0]), b = root(t[corner]);
+      if (a != b) parent[std::max(a, b)] = std::min(a, b);
+    }
+  MeshPieces pieces;
+  std::vector<std::uint32_t> label(mesh.points.size(), MeshPieces::kNoPiece);
+  pieces.ofTriangle.resize(mesh.triangles.size());
+  for (std::size_t i = 0; i < mesh.triangles.size(); ++i) {
+    std::uint32_t& id = label[root(mesh.triangles[i][0])];
+    if (id == MeshPieces::kNoPiece) id = pieces.count++;
+    pieces.ofTriangle[i] = id;
+  }
+  pieces.ofVertex.assign(mesh.points.size(), MeshPieces::kNoPiece);
+  for (std::size_t i = 0; i < mesh.triangles.size(); ++i)
+    for (std::uint32_t v : mesh.triangles[i]) pieces.ofVertex[v] = pieces.ofTriangle[i];
+  return pieces;
+}
+
+std::vector<Vec3f> fibonacciDirections(int count) {
+  std::vector<Vec3f> directions;
+  const double golden = std::numbers::pi * (3.0 - std::sqrt(5.0));
+  for (int i = 0; i < count; ++i) {
+    const double z = 1.0 - (2.0 * i + 1.0) / count;
+    const double radius = std::sqrt(std::max(0.0, 1.0 - z * z));
+    const double angle = golden * i;
+    directions.emplace_back(static_cast<float>(radius * std::cos(angle)), static_cast<float>(radius * std::sin(angle)),
+                            static_cast<float>(z));
+  }
+  return directions;
 }
 
 }  // namespace apo

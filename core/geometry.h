@@ -92,4 +92,18 @@ std::vector<Vec3f> areaWeightedVertexNormals(const Scan& mesh);
 // Total area of a mesh's triangles.
 double surfaceArea(const Scan& mesh);
 
+// The pieces of a mesh: triangles connected through shared vertices,
+// numbered in the order of their first triangle. Vertices in no triangle
+// belong to no piece (kNoPiece).
+struct MeshPieces {
+  static constexpr std::uint32_t kNoPiece = ~0u;
+  std::vector<std::uint32_t> ofTriangle, ofVertex;
+  std::uint32_t count = 0;
+};
+MeshPieces meshPieces(const Scan& mesh);
+
+// `count` unit directions spread evenly over the sphere (Fibonacci lattice),
+// the same on every call.
+std::vector<Vec3f> fibonacciDirections(int count);
+
 }  // namespace apo

@@ -4,8 +4,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numbers>
-#include <numeric>
 #include <utility>
 #include <vector>
 
@@ -23,31 +21,6 @@ constexpr int kRaysPerSide = 48;
 // their back to nearly every ray.
 constexpr std::uint64_t kMinVotes = 8;
 constexpr std::uint64_t kClearMajority = 2;
-
-// Component of each triangle (triangles sharing a vertex are connected),
-// numbered in the order of their first triangle.
-std::vector<std::uint32_t> triangleComponents(const Scan& mesh, std::uint32_t& count) {
-  std::vector<std::uint32_t> parent(mesh.points.size());
-  std::iota(parent.begin(), parent.end(), 0u);
-  auto root = [&](std::uint32_t i) {
-    while (parent[i] != i) i = parent[i] = parent[parent[i]];
-    return i;
-  };
-  for (const Triangle& t : mesh.triangles)
-    for (int corner = 1; corner < 3; ++corner) {
-      const std::uint32_t a = root(t[0]), b = root(t[corner]);
-      if (a != b) parent[std::max(a, b)] = std::min(a, b);
-    }
-  std::vector<std::uint32_t> label(mesh.points.size(), ~0u);
-  std::vector<std::uint32_t> component(mesh.triangles.size());
-  count = 0;
-  for (std::size_t i = 0; i < mesh.triangles.size(); ++i) {
-    std::uint32_t& id = label[root(mesh.triangles[i][0])];
-    if (id == ~0u) id = count++;
-    component[i] = id;
-  }
-  return component;
-}
 
 // Whether each component is closed: every undirected edge used by exactly
 // two of its triangles.
@@ -93,19 +66,6 @@ std::vector<double> signedVolumes(const Scan& mesh, const std::vector<std::uint3
   return volume;
 }
 
-// Fibonacci directions on the unit sphere.
-std::vector<Vec3f> sphereDirections(int count) {
-  std::vector<Vec3f> directions;
-  const double golden = std::numbers::pi * (3.0 - std::sqrt(5.0));
-  for (int i = 0; i < count; ++i) {
-    const double z = 1.0 - (2.0 * i + 1.0) / count;
-    const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
-    directions.emplace_back(static_cast<float>(r * std::cos(golden * i)), static_cast<float>(r * std::sin(golden * i)),
-                            static_cast<float>(z));
-  }
-  return directions;
-}
-
 struct Votes {
   std::uint64_t front = 0, back = 0;
 };
@@ -120,7 +80,7 @@ std::vector<Votes> visibilityVotes(const Scan& mesh, const RayCaster& caster, co
   std::vector<Votes> votes(count);
   std::vector<Ray> rays;
   std::vector<RayHit> hits;
-  for (const Vec3f& d : sphereDirections(kDirections)) {
+  for (const Vec3f& d : fibonacciDirections(kDirections)) {
     const Vec3f u = d.unitOrthogonal(), v = d.cross(u);
     rays.clear();
     for (int i = 0; i < kRaysPerSide; ++i)
@@ -193,8 +153,9 @@ Result<std::uint64_t> followNearestDecided(const Scan& mesh, const std::vector<s
 Result<FaceOrientation> orientFacesOutward(Scan& mesh, const RayCaster& caster) {
   FaceOrientation result;
   if (!mesh.isMesh()) return result;
-  std::uint32_t count = 0;
-  const std::vector<std::uint32_t> component = triangleComponents(mesh, count);
+  const MeshPieces pieces = meshPieces(mesh);
+  const std::uint32_t count = pieces.count;
+  const std::vector<std::uint32_t>& component = pieces.ofTriangle;
   result.components = count;
   const std::vector<char> closed = closedComponents(mesh, component, count);
   const std::vector<double> volume = signedVolumes(mesh, component, count);

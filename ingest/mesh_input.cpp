@@ -3,7 +3,6 @@
 #include "adapters/flann/flann_search.h"
 
 #include <algorithm>
-#include <numeric>
 #include <vector>
 
 namespace apo::mesh_input {
@@ -11,31 +10,6 @@ namespace {
 
 // Neighbours looked at for another piece's vertex.
 constexpr std::size_t kNeighbours = 8;
-
-// Piece of each vertex (through shared triangles); unused vertices alone.
-std::vector<std::uint32_t> vertexPieces(const Scan& mesh, std::uint64_t& pieces) {
-  std::vector<std::uint32_t> parent(mesh.points.size());
-  std::iota(parent.begin(), parent.end(), 0u);
-  auto root = [&](std::uint32_t i) {
-    while (parent[i] != i) i = parent[i] = parent[parent[i]];
-    return i;
-  };
-  for (const Triangle& t : mesh.triangles)
-    for (int corner = 1; corner < 3; ++corner) {
-      const std::uint32_t a = root(t[0]), b = root(t[corner]);
-      if (a != b) parent[std::max(a, b)] = std::min(a, b);
-    }
-  std::vector<char> used(mesh.points.size(), 0);
-  for (const Triangle& t : mesh.triangles)
-    for (std::uint32_t v : t) used[v] = 1;
-  std::vector<std::uint32_t> piece(mesh.points.size());
-  pieces = 0;
-  for (std::uint32_t i = 0; i < piece.size(); ++i) {
-    piece[i] = root(i);
-    pieces += used[i] && piece[i] == i;
-  }
-  return piece;
-}
 
 struct EdgeFigures {
   double boundaryFraction = 0.0;
@@ -76,7 +50,9 @@ EdgeFigures edgeFigures(const Scan& mesh) {
 Result<Evidence> judge(const Scan& mesh) {
   Evidence evidence;
   if (!mesh.isMesh()) return evidence;
-  const std::vector<std::uint32_t> piece = vertexPieces(mesh, evidence.pieces);
+  const MeshPieces pieces = meshPieces(mesh);
+  const std::vector<std::uint32_t>& piece = pieces.ofVertex;
+  evidence.pieces = pieces.count;
   const EdgeFigures edges = edgeFigures(mesh);
   evidence.boundaryEdgeFraction = edges.boundaryFraction;
   evidence.medianEdgeLength = edges.medianLength;
@@ -85,17 +61,20 @@ Result<Evidence> judge(const Scan& mesh) {
   const auto graph = flann_adapter::nearestNeighbourGraph(mesh.points.positions, kNeighbours);
   if (!graph) return graph.error();
   const double reach2 = kOverlapEdgeLengths * kOverlapEdgeLengths * edges.medianLength * edges.medianLength;
-  std::size_t overlapping = 0;
+  std::size_t overlapping = 0, referenced = 0;
   const auto& p = mesh.points.positions;
-  for (std::size_t i = 0; i < p.size(); ++i)
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    if (piece[i] == MeshPieces::kNoPiece) continue;
+    ++referenced;
     for (std::size_t n = 0; n < graph->k; ++n) {
       const std::uint32_t j = graph->neighbours[i * graph->k + n];
-      if (piece[j] != piece[i] && (p[j] - p[i]).squaredNorm() <= reach2) {
+      if (piece[j] != MeshPieces::kNoPiece && piece[j] != piece[i] && (p[j] - p[i]).squaredNorm() <= reach2) {
         ++overlapping;
         break;
       }
     }
-  evidence.overlapFraction = static_cast<double>(overlapping) / static_cast<double>(p.size());
+  }
+  evidence.overlapFraction = referenced ? static_cast<double>(overlapping) / static_cast<double>(referenced) : 0.0;
   evidence.looksLikeScans = evidence.overlapFraction >= kScansOverlapFraction;
   return evidence;
 }

@@ -22,7 +22,7 @@ inline constexpr double kScansOverlapFraction = 0.10;
 struct Evidence {
   std::uint64_t pieces = 0;           // triangles connected through shared vertices
   double boundaryEdgeFraction = 0.0;  // edges with one triangle, of all edges
-  double overlapFraction = 0.0;       // vertices within kOverlapEdgeLengths of another piece
+  double overlapFraction = 0.0;       // of the vertices in triangles: within kOverlapEdgeLengths of another piece
   double medianEdgeLength = 0.0;
   bool looksLikeScans = false;
 };

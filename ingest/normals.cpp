@@ -76,6 +76,18 @@ Result<std::vector<char>> agreesWithNearest(const std::vector<Vec3f>& points, co
   return agrees;
 }
 
+// Each of `leftovers` turned, if need be, to agree with the nearest of
+// `oriented`.
+Status turnLikeNearest(const std::vector<Vec3f>& points, std::vector<Vec3f>& normals,
+                       const std::vector<std::uint32_t>& oriented, const std::vector<std::uint32_t>& leftovers) {
+  if (leftovers.empty() || oriented.empty()) return okStatus();
+  const auto agrees = agreesWithNearest(points, normals, oriented, leftovers);
+  if (!agrees) return agrees.error();
+  for (std::size_t q = 0; q < leftovers.size(); ++q)
+    if (!(*agrees)[q]) normals[leftovers[q]] = -normals[leftovers[q]];
+  return okStatus();
+}
+
 struct IslandOrientation {
   std::size_t islands = 0;     // k-NN graph components oriented by their own MST
   std::size_t leftovers = 0;   // points oriented by their nearest neighbour alone
@@ -136,12 +148,7 @@ Result<IslandOrientation> orientByIslands(const std::vector<Vec3f>& points, std:
     }
     ++result.islands;
   }
-  if (!leftovers.empty() && !oriented.empty()) {
-    const auto agrees = agreesWithNearest(points, normals, oriented, leftovers);
-    if (!agrees) return agrees.error();
-    for (std::size_t q = 0; q < leftovers.size(); ++q)
-      if (!(*agrees)[q]) normals[leftovers[q]] = -normals[leftovers[q]];
-  }
+  APO_RETURN_IF_ERROR(turnLikeNearest(points, normals, oriented, leftovers));
   result.leftovers = leftovers.size();
   return result;
 }
@@ -279,12 +286,7 @@ Result<IslandOrientation> orientByPropagation(const std::vector<Vec3f>& points, 
   }
   std::sort(leftovers.begin(), leftovers.end());
   std::sort(oriented.begin(), oriented.end());
-  if (!leftovers.empty() && !oriented.empty()) {
-    const auto agrees = agreesWithNearest(points, normals, oriented, leftovers);
-    if (!agrees) return agrees.error();
-    for (std::size_t q = 0; q < leftovers.size(); ++q)
-      if (!(*agrees)[q]) normals[leftovers[q]] = -normals[leftovers[q]];
-  }
+  APO_RETURN_IF_ERROR(turnLikeNearest(points, normals, oriented, leftovers));
   result.leftovers = leftovers.size();
   return result;
 }

@@ -5,25 +5,10 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numbers>
 #include <random>
 
 namespace apo {
 namespace {
-
-// Evenly spread unit directions (Fibonacci sphere), deterministic.
-std::vector<Vec3f> fibonacciDirections(int count) {
-  std::vector<Vec3f> directions;
-  const double golden = std::numbers::pi * (3.0 - std::sqrt(5.0));
-  for (int i = 0; i < count; ++i) {
-    const double z = 1.0 - (2.0 * i + 1.0) / count;
-    const double radius = std::sqrt(std::max(0.0, 1.0 - z * z));
-    const double angle = golden * i;
-    directions.emplace_back(static_cast<float>(radius * std::cos(angle)), static_cast<float>(radius * std::sin(angle)),
-                            static_cast<float>(z));
-  }
-  return directions;
-}
 
 // A square grid of rays from `origin` towards `target`, wide enough to see a
 // sphere of `radius` around the target.

@@ -2,6 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
+
 namespace apo {
 namespace {
 
@@ -35,6 +38,39 @@ TEST(AreaWeightedVertexNormals, OctahedronVerticesPointOutwards) {
     EXPECT_NEAR((normals[i] - octahedron.points.positions[i]).norm(), 0.0f, 1e-6f) << i;
   // Eight equilateral faces of side sqrt(2).
   EXPECT_NEAR(surfaceArea(octahedron), 8 * std::sqrt(3.0) / 4 * 2, 1e-6);
+}
+
+// Two triangles sharing a vertex (one piece), a separate triangle (another),
+// and a vertex in no triangle.
+TEST(MeshPieces, TrianglesSharingAVertexAreOnePiece) {
+  Scan mesh;
+  mesh.points.positions.assign(8, Vec3f::Zero());
+  mesh.triangles = {{5, 6, 7}, {0, 1, 2}, {2, 3, 4}};
+  const MeshPieces pieces = meshPieces(mesh);
+  EXPECT_EQ(pieces.count, 2u);
+  EXPECT_EQ(pieces.ofTriangle, (std::vector<std::uint32_t>{0, 1, 1}));  // in the order of first triangles
+  EXPECT_EQ(pieces.ofVertex, (std::vector<std::uint32_t>{1, 1, 1, 1, 1, 0, 0, 0}));
+  mesh.points.positions.emplace_back(Vec3f::Zero());
+  EXPECT_EQ(meshPieces(mesh).ofVertex.back(), MeshPieces::kNoPiece);
+}
+
+// Unit length, spread: every direction of a dense check set has a lattice
+// direction within a few degrees, and the mean is near zero.
+TEST(FibonacciDirections, UnitAndEvenlySpread) {
+  const std::vector<Vec3f> directions = fibonacciDirections(64);
+  ASSERT_EQ(directions.size(), 64u);
+  Vec3f sum = Vec3f::Zero();
+  for (const Vec3f& d : directions) {
+    EXPECT_NEAR(d.norm(), 1.0f, 1e-6f);
+    sum += d;
+  }
+  EXPECT_LT(sum.norm() / 64.0f, 0.02f);
+  for (const Vec3f& probe : {Vec3f(1, 0, 0), Vec3f(0, -1, 0), Vec3f(0, 0, 1), Vec3f(0.6f, 0.0f, -0.8f)}) {
+    float best = -1.0f;
+    for (const Vec3f& d : directions) best = std::max(best, d.dot(probe));
+    EXPECT_GT(best, std::cos(20.0f * 3.14159265f / 180.0f));  // 64 directions: about 14 degrees apart
+  }
+  EXPECT_EQ(fibonacciDirections(64), directions);
 }
 
 }  // namespace
