@@ -8,7 +8,7 @@ PACKAGES=(
   # toolchain
   build-essential cmake pkg-config git ca-certificates
   # geometry and scan processing
-  libpcl-dev libflann-dev libcgal-dev libembree-dev libglm-dev libopen3d-dev
+  libpcl-dev libflann-dev libnanoflann-dev libcgal-dev libembree-dev libglm-dev libopen3d-dev
   libeigen3-dev libtbb-dev libmeshoptimizer-dev
   # headless rendering
   libosmesa6-dev

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Raw acquisitions (issue 13): the 1.2M-triangle simplification with and
-# without meshoptimizer's quick pass beside Open3D, normal orientation of a
+# without meshoptimizer's quick pass beside Open3D, the quick pass against
+# CGAL alone on three large meshes and three targets, normal orientation of a
 # 1M-point scan without sensor (our propagation against CGAL's MST, against
 # the scan's true normals), and meshes wound inward, in one run.
 # Usage (after the README's setup and build): bash bench/raw_acquisitions.sh [OUTDIR]
@@ -35,6 +36,34 @@ for variant in quick cgal-only; do
 done
 read -r s mem < <(measure $baseline decimate "$big" 3000 "$out/open3d_decimated.ply")
 echo "| Open3D quadric decimation | $s | $mem | 3000 | | |"
+echo
+
+echo "### The quick pass against CGAL alone: three large meshes, three targets"
+echo
+echo "| mesh | faces in | target | CGAL alone s | quick pass s | Hausdorff: CGAL / quick (change) | mean: CGAL / quick (change) |"
+echo "|---|---|---|---|---|---|---|"
+for name in armadillo elephant; do
+  file="$out/${name}_big.ply"
+  source=$(find datasets -name "$name.off" -o -name "refined_$name.off" | head -n 1)
+  [ -f "$file" ] || $baseline subdivide "$source" 2 "$file" >>"$out/log.txt"
+done
+for target in 1000 3000 10000; do
+  for file in "$out/armadillo_big.ply" "$out/elephant_big.ply" "$big"; do
+    name=$(basename "$file" .ply)
+    read -r sc _ < <(measure $apo -q simplify "$file" -o "$out/sweep-$name-$target-cgal" --faces $target --no-quick-pass)
+    read -r sq _ < <(measure $apo -q simplify "$file" -o "$out/sweep-$name-$target-quick" --faces $target)
+    python3 - "$out/sweep-$name-$target-cgal/simplify.json" "$out/sweep-$name-$target-quick/simplify.json" "$name" "$target" "$sc" "$sq" <<'PY'
+import json, sys
+c, q = (json.load(open(p)) for p in sys.argv[1:3])
+dc, dq = c["distance_to_input"], q["distance_to_input"]
+change = lambda a, b: "%+.0f%%" % (100 * (b / a - 1))
+print("| %s | %d | %s | %s | %s | %.5f / %.5f (%s) | %.6f / %.6f (%s) |" % (
+    sys.argv[3], c["faces"]["in"], sys.argv[4], sys.argv[5], sys.argv[6],
+    dc["hausdorff"], dq["hausdorff"], change(dc["hausdorff"], dq["hausdorff"]),
+    dc["mean"], dq["mean"], change(dc["mean"], dq["mean"])))
+PY
+  done
+done
 echo
 
 echo "### Orienting a 1M-point scan without sensor position (ingest, whole process)"

@@ -8,9 +8,12 @@
 
 #include <Eigen/Eigenvalues>
 #include <spdlog/spdlog.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <array>
 #include <tuple>
@@ -25,8 +28,9 @@ constexpr std::size_t kSubsampleSize = 2000;
 // 12 (0 flipped against the true normals) in 6 s and 0.4 GiB, and in 16 s
 // and 0.7 GiB with 24 (docs/benchmarks.md, "Raw acquisitions").
 constexpr int kMinMstNeighbours = 12;
-constexpr int kPropagationNeighbours = 12;
+constexpr std::size_t kPropagationNeighbours = 12;
 constexpr double kMinPlanarity = 0.25;  // median lambda1/lambda2 of a 2-D patch
+constexpr double kSameSpread = 1e-6;    // eigenvalues closer than this share of the trace are equal
 
 // Eigenvalues (ascending) of the covariance of the first k neighbours.
 Eigen::Vector3d covarianceEigenvalues(const std::vector<Vec3f>& points, const std::vector<int>& neighbours, int k) {
@@ -160,11 +164,13 @@ struct Adjacency {
   std::vector<std::uint32_t> adjacency;
 };
 
-Adjacency symmetricGraph(const flann_adapter::NeighbourGraph& graph, std::size_t count) {
+// The first `columns` neighbours of each row, made symmetric.
+Adjacency symmetricGraph(const flann_adapter::NeighbourGraph& graph, std::size_t columns, std::size_t count) {
+  columns = std::min(columns, graph.k);
   Adjacency result;
   result.offsets.assign(count + 1, 0);
   for (std::size_t i = 0; i < count; ++i)
-    for (std::size_t j = 0; j < graph.k; ++j) {
+    for (std::size_t j = 0; j < columns; ++j) {
       ++result.offsets[i + 1];
       ++result.offsets[graph.neighbours[i * graph.k + j] + 1];
     }
@@ -172,7 +178,7 @@ Adjacency symmetricGraph(const flann_adapter::NeighbourGraph& graph, std::size_t
   result.adjacency.resize(result.offsets[count]);
   std::vector<std::uint64_t> next(result.offsets.begin(), result.offsets.end() - 1);
   for (std::size_t i = 0; i < count; ++i)
-    for (std::size_t j = 0; j < graph.k; ++j) {
+    for (std::size_t j = 0; j < columns; ++j) {
       const std::uint32_t other = graph.neighbours[i * graph.k + j];
       result.adjacency[next[i]++] = other;
       result.adjacency[next[other]++] = static_cast<std::uint32_t>(i);
@@ -265,18 +271,18 @@ void propagateFromHighest(const Adjacency& graph, const std::vector<Vec3f>& poin
   }
 }
 
-// Orientation by propagation over the k-NN graph, component by component
-// (each one's highest normal up and out, as for closed objects); components
-// of k points or fewer agree with their nearest oriented point.
-Result<IslandOrientation> orientByPropagation(const std::vector<Vec3f>& points, std::vector<Vec3f>& normals, int k) {
+// Orientation by propagation over the graph's first `columns` neighbours,
+// component by component (each one's highest normal up and out, as for
+// closed objects); components of `columns` points or fewer agree with their
+// nearest oriented point.
+Result<IslandOrientation> orientByPropagation(const std::vector<Vec3f>& points, std::vector<Vec3f>& normals,
+                                              const flann_adapter::NeighbourGraph& nearest, std::size_t columns) {
   IslandOrientation result;
-  const auto nearest = flann_adapter::nearestNeighbourGraph(points, static_cast<std::size_t>(k));
-  if (!nearest) return nearest.error();
-  const Adjacency graph = symmetricGraph(*nearest, points.size());
+  const Adjacency graph = symmetricGraph(nearest, columns, points.size());
   std::vector<char> visited(points.size(), 0);
   std::vector<std::uint32_t> oriented, leftovers;
   for (const auto& component : graphComponents(graph, points.size())) {
-    if (component.size() <= static_cast<std::size_t>(k)) {
+    if (component.size() <= columns) {
       leftovers.insert(leftovers.end(), component.begin(), component.end());
       continue;
     }
@@ -289,6 +295,51 @@ Result<IslandOrientation> orientByPropagation(const std::vector<Vec3f>& points, 
   APO_RETURN_IF_ERROR(turnLikeNearest(points, normals, oriented, leftovers));
   result.leftovers = leftovers.size();
   return result;
+}
+
+// The normal of the plane fitted to a point and its first `others`
+// neighbours (the eigenvector of their covariance's smallest eigenvalue, as
+// PCL's NormalEstimation computes it), turned towards `towards`. NaN when
+// the neighbourhood has fewer than 3 points, no extent, or no one flattest
+// direction (its two smallest spreads equal: a ball of points, not a patch
+// of surface).
+Vec3f planeNormal(const std::vector<Vec3f>& points, const flann_adapter::NeighbourGraph& graph, std::size_t i,
+                  std::size_t others, const Vec3f& towards) {
+  constexpr float kUndefined = std::numeric_limits<float>::quiet_NaN();
+  if (others + 1 < 3) return Vec3f::Constant(kUndefined);
+  // Offsets from the point itself keep the sums exact for georeferenced
+  // coordinates as well.
+  const Eigen::Vector3d origin = points[i].cast<double>();
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d products = Eigen::Matrix3d::Zero();
+  for (std::size_t j = 0; j < others; ++j) {
+    const Eigen::Vector3d d = points[graph.neighbours[i * graph.k + j]].cast<double>() - origin;
+    sum += d;
+    products += d * d.transpose();
+  }
+  const double count = static_cast<double>(others + 1);
+  const Eigen::Matrix3d covariance = products / count - (sum / count) * (sum / count).transpose();
+  if (!(covariance.trace() > 0.0)) return Vec3f::Constant(kUndefined);
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(covariance);
+  const Eigen::Vector3d spread = solver.eigenvalues();  // ascending
+  if (spread[1] - spread[0] <= kSameSpread * covariance.trace()) return Vec3f::Constant(kUndefined);
+  Vec3f normal = solver.eigenvectors().col(0).cast<float>().normalized();
+  if (normal.dot(towards - points[i]) < 0.0f) normal = -normal;
+  return normal;
+}
+
+// PCA normals from each point and its first k - 1 graph neighbours, on every
+// core (each normal written by one task: the result does not depend on their
+// number).
+std::vector<Vec3f> pcaNormals(const std::vector<Vec3f>& points, const flann_adapter::NeighbourGraph& graph, int k,
+                              const Vec3f& towards) {
+  const std::size_t others = std::min(graph.k, static_cast<std::size_t>(std::max(k - 1, 0)));
+  std::vector<Vec3f> normals(points.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 4096), [&](const auto& range) {
+    for (std::size_t i = range.begin(); i < range.end(); ++i)
+      normals[i] = planeNormal(points, graph, i, others, towards);
+  });
+  return normals;
 }
 
 }  // namespace
@@ -342,10 +393,16 @@ Result<OrientedNormals> estimateOrientedNormals(const std::vector<Vec3f>& points
   }
   spdlog::info("ingest: k = {} for normals{} in {:.2f} s", result.neighbours, k > 0 ? " (given)" : " (chosen)", phase.seconds());
   phase = Stopwatch();
-  // PCL turns every normal towards the viewpoint it is given.
-  auto estimated = pcl_adapter::estimateNormals(points, result.neighbours, viewpoint ? viewpoint->origin : Vec3f::Zero());
-  if (!estimated) return estimated.error();
-  result.normals = std::move(estimated).value();
+  // One neighbour search serves the plane fits (k - 1 others) and the
+  // orientation graph (its first kPropagationNeighbours columns).
+  const std::size_t searched = std::max(static_cast<std::size_t>(result.neighbours - 1), kPropagationNeighbours);
+  const auto graph = flann_adapter::nearestNeighbourGraph(points, searched);
+  if (!graph) return graph.error();
+  spdlog::info("ingest: {} nearest neighbours of {} points in {:.2f} s", graph->k, points.size(), phase.seconds());
+  phase = Stopwatch();
+  // Without a viewpoint the propagation decides; the origin only makes the
+  // starting signs reproducible.
+  result.normals = pcaNormals(points, *graph, result.neighbours, viewpoint ? viewpoint->origin : Vec3f::Zero());
   spdlog::info("ingest: PCA normals of {} points in {:.2f} s", points.size(), phase.seconds());
   phase = Stopwatch();
   if (viewpoint) {
@@ -360,7 +417,7 @@ Result<OrientedNormals> estimateOrientedNormals(const std::vector<Vec3f>& points
   const Result<IslandOrientation> islands =
       orientation == OrientationMethod::CgalMst
           ? orientByIslands(points, defined, std::max(result.neighbours, kMinMstNeighbours))
-          : orientByPropagation(points, defined, kPropagationNeighbours);
+          : orientByPropagation(points, defined, *graph, kPropagationNeighbours);
   if (!islands) return islands.error();
   spdlog::info("ingest: normals oriented by {} in {:.2f} s", result.orientation, phase.seconds());
   for (std::size_t i = 0; i < points.size(); ++i)

@@ -31,10 +31,10 @@ struct OrientedNormals {
   std::size_t unoriented = 0;   // points no MST pass reached (oriented by their nearest neighbour)
 };
 
-// Estimates normals (PCL, k nearest neighbours; k = 0 chooses it) and orients
-// them towards `viewpoint` when given, else by `orientation`, island by
-// island for scans in separate pieces (docs/ingest.md). Internal error when a
-// library fails.
+// Estimates normals (a plane fitted to each point and its k - 1 nearest
+// neighbours; k = 0 chooses it) and orients them towards `viewpoint` when
+// given, else by `orientation`, island by island for scans in separate
+// pieces (docs/ingest.md). Internal error when a library fails.
 Result<OrientedNormals> estimateOrientedNormals(const std::vector<Vec3f>& points,
                                                 const std::optional<Viewpoint>& viewpoint, int k,
                                                 OrientationMethod orientation = OrientationMethod::Propagation);

@@ -78,8 +78,13 @@ struct EdgeCollapseResult {
 // Garland-Heckbert plane quadrics (the paper's) or Lindstrom-Turk.
 enum class CollapseCost { GarlandHeckbert, LindstromTurk };
 // `onCollapsed` hears the fraction of the faces to remove that are gone.
+// `inheritedQuadrics` (Garland-Heckbert only; empty, or one per vertex of
+// `mesh`): plane quadrics (4 x 4, CGAL's convention: unit-normal planes, each
+// face's added to its three corners) of the surface an earlier pass took out
+// around each vertex, in place of the planes of the vertex's own faces.
 Result<EdgeCollapseResult> edgeCollapse(const Scan& mesh, std::uint64_t targetFaces, CollapseCost cost,
-                                        const ProgressCallback& onCollapsed = {});
+                                        const ProgressCallback& onCollapsed = {},
+                                        const std::vector<Eigen::Matrix4d>& inheritedQuadrics = {});
 
 // --- cgal_distances.cpp -----------------------------------------------------
 

@@ -198,6 +198,33 @@ struct RidgeQuadricPlacement {
   static Eigen::Vector3d toEigen(const Point& p) { return {p.x(), p.y(), p.z()}; }
 };
 
+// Garland-Heckbert's cost with each vertex's quadric made of the planes it
+// stands for in the mesh before an earlier pass (meshoptimizer's) removed
+// them: when edge_collapse initialises the quadrics, vertex i's face planes
+// are replaced by `inherited[i]` (its border terms stay). Without it the
+// collapses forget the detail the first pass took out, and m lands a third
+// farther from M (docs/benchmarks.md). Vertex i of the halfedge mesh is
+// point i of the soup; vertices the repair appended keep their own planes.
+template <class Quadrics>
+struct InheritingQuadrics : Quadrics {
+  InheritingQuadrics(const Quadrics& quadrics, const std::vector<Eigen::Matrix4d>& inherited)
+      : Quadrics(quadrics), inherited(&inherited) {}
+  const std::vector<Eigen::Matrix4d>* inherited;
+
+  template <class VertexPointMap, class Traits>
+  void initialize(const Mesh& mesh, const VertexPointMap points, const Traits& traits) const {
+    Quadrics::initialize(mesh, points, traits);
+    if (inherited->empty()) return;
+    for (const Mesh::Vertex_index v : mesh.vertices()) {
+      if (v.idx() >= inherited->size()) continue;
+      auto quadric = get(this->vcm(), v);
+      for (const Mesh::Face_index f : mesh.faces_around_target(mesh.halfedge(v)))
+        if (f != Mesh::null_face()) quadric -= this->construct_quadric(f, mesh, points, traits);
+      put(this->vcm(), v, quadric + (*inherited)[v.idx()]);
+    }
+  }
+};
+
 template <class Cost, class Placement>
 void collapseToFaceCount(Mesh& mesh, std::size_t targetFaces, const CollapseProgress& progress, const Cost& cost,
                          const Placement& basePlacement) {
@@ -211,14 +238,16 @@ void collapseToFaceCount(Mesh& mesh, std::size_t targetFaces, const CollapseProg
                          .filter(NoDegenerateTriangleFilter{}));
 }
 
-void collapseWithPolicy(Mesh& mesh, std::size_t targetFaces, CollapseCost policy, const CollapseProgress& progress) {
+void collapseWithPolicy(Mesh& mesh, std::size_t targetFaces, CollapseCost policy,
+                        const std::vector<Eigen::Matrix4d>& inheritedQuadrics, const CollapseProgress& progress) {
   switch (policy) {
     case CollapseCost::GarlandHeckbert: {
       // The cost and placement copies share the per-vertex quadrics, which
       // edge_collapse keeps up to date through the cost object.
       using Quadrics = SMS::GarlandHeckbert_plane_policies<Mesh, Kernel>;
       const Quadrics quadrics(mesh);
-      collapseToFaceCount(mesh, targetFaces, progress, quadrics.get_cost(), RidgeQuadricPlacement<Quadrics>{quadrics});
+      collapseToFaceCount(mesh, targetFaces, progress, InheritingQuadrics<Quadrics>(quadrics, inheritedQuadrics),
+                          RidgeQuadricPlacement<Quadrics>{quadrics});
       return;
     }
     case CollapseCost::LindstromTurk:
@@ -335,6 +364,7 @@ Scan scanFromMesh(Mesh& mesh) {
 }
 
 Result<EdgeCollapseResult> simplify(const Scan& input, std::uint64_t targetFaces, CollapseCost policy,
+                                    const std::vector<Eigen::Matrix4d>& inheritedQuadrics,
                                     const ProgressCallback& onCollapsed) {
   Result<Soup> soup = soupFromScan(input);
   if (!soup) return soup.error();
@@ -345,7 +375,7 @@ Result<EdgeCollapseResult> simplify(const Scan& input, std::uint64_t targetFaces
   const CollapseProgress progress(onCollapsed, mesh->number_of_faces(), targetFaces);
   if (mesh->number_of_faces() > targetFaces) {
     result.filledHoles = fillSmallHoles(*mesh);
-    collapseWithPolicy(*mesh, targetFaces, policy, progress);
+    collapseWithPolicy(*mesh, targetFaces, policy, inheritedQuadrics, progress);
   }
   if (aboveTarget(*mesh, targetFaces)) {
     collapseBordersToo(*mesh, targetFaces, progress);
@@ -363,10 +393,13 @@ Result<EdgeCollapseResult> simplify(const Scan& input, std::uint64_t targetFaces
 }  // namespace
 
 Result<EdgeCollapseResult> edgeCollapse(const Scan& mesh, std::uint64_t targetFaces, CollapseCost policy,
-                                        const ProgressCallback& onCollapsed) {
+                                        const ProgressCallback& onCollapsed,
+                                        const std::vector<Eigen::Matrix4d>& inheritedQuadrics) {
   if (targetFaces == 0) return usageError("simplify: the target face count must be positive");
+  if (!inheritedQuadrics.empty() && inheritedQuadrics.size() != mesh.points.size())
+    return internalError("simplify: {} inherited quadrics for {} vertices", inheritedQuadrics.size(), mesh.points.size());
   try {
-    return simplify(mesh, targetFaces, policy, onCollapsed);
+    return simplify(mesh, targetFaces, policy, inheritedQuadrics, onCollapsed);
   } catch (const std::exception& e) {
     return internalError("simplify: CGAL edge collapse failed: {}", e.what());
   } catch (...) {

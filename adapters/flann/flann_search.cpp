@@ -302,40 +302,7 @@ Nearest searchNearest(const std::vector<Vec3f>& reference, const std::vector<Vec
   return nearest;
 }
 
-// Rows of points[first, first + count) into graph.neighbours: k + 1 nearest,
-// the point itself skipped (or, among coincident points, the farthest found
-// when the point is not among them).
-void batchNeighbours(const KdTree& tree, const std::vector<Vec3f>& points, std::size_t first, std::size_t count,
-                     flann_adapter::NeighbourGraph& graph) {
-  const std::size_t columns = graph.k + 1;
-  std::vector<std::size_t> indices(count * columns);
-  std::vector<float> squaredDistances(count * columns);
-  flann::Matrix<std::size_t> indexRows(indices.data(), count, columns);
-  flann::Matrix<float> distanceRows(squaredDistances.data(), count, columns);
-  tree.knnSearch(pointRows(&points[first], count), indexRows, distanceRows, columns, exactSearch(0));
-  for (std::size_t i = 0; i < count; ++i) {
-    std::uint32_t* row = &graph.neighbours[(first + i) * graph.k];
-    std::size_t written = 0;
-    for (std::size_t j = 0; j < columns && written < graph.k; ++j)
-      if (indices[i * columns + j] != first + i) row[written++] = static_cast<std::uint32_t>(indices[i * columns + j]);
-  }
-}
-
 }  // namespace
-
-Result<flann_adapter::NeighbourGraph> flann_adapter::nearestNeighbourGraph(const std::vector<Vec3f>& points,
-                                                                           std::size_t k) {
-  NeighbourGraph graph;
-  graph.k = points.empty() ? 0 : std::min(k, points.size() - 1);
-  if (graph.k == 0) return graph;
-  return catchLibraryErrors("FLANN k-nearest graph", [&]() -> Result<NeighbourGraph> {
-    graph.neighbours.resize(points.size() * graph.k);
-    const auto tree = buildKdTree(points);
-    for (std::size_t first = 0; first < points.size(); first += kSearchBatch)
-      batchNeighbours(*tree, points, first, std::min(kSearchBatch, points.size() - first), graph);
-    return std::move(graph);
-  });
-}
 
 Result<std::unique_ptr<ClosestPointFinder>> makeFlannClosestPoint(const Scan& detail) {
   APO_RETURN_IF_ERROR(checkDetail(detail));

@@ -1,8 +1,8 @@
 // The FLANN adapter (target apo_flann): exact k-d tree searches (one tree,
 // searched to the end; randomised trees were wrong 58% of the time on our
 // data, ../shared/STACK.md) behind core's closest-point seam and as plain
-// functions over point vectors. Every FLANN exception comes back as an
-// Internal error; the closest-point finders, called from worker threads,
+// functions over point vectors; nanoflann for the k-nearest graph. Every
+// library exception comes back as an Internal error; the closest-point finders, called from worker threads,
 // answer nothing instead of throwing.
 #pragma once
 
@@ -44,9 +44,9 @@ Result<std::vector<float>> nearestDistances(const std::vector<Vec3f>& reference,
 Result<std::vector<std::uint32_t>> nearestIndices(const std::vector<Vec3f>& reference, const std::vector<Vec3f>& queries);
 
 // Each point's k nearest other points, nearest first: row i of `neighbours`
-// (k entries) for point i. k is reduced to the number of other points. Batch
-// search on every core, the result independent of their number; ties in
-// distance come in the k-d tree's order, the same on every run.
+// (k entries) for point i. k is reduced to the number of other points.
+// nanoflann on every core, the result independent of their number; equal
+// distances in the order of the points' indices. BadInput above 2^32 points.
 struct NeighbourGraph {
   std::size_t k = 0;
   std::vector<std::uint32_t> neighbours;  // points.size() x k

@@ -107,7 +107,12 @@ Result<QuickCollapse> quickCollapse(const Scan& mesh, std::uint64_t targetFaces,
   for (const Triangle& t : mesh.triangles)
     for (std::uint32_t v : t)
       if (v >= vertexCount) return badInput("triangle names vertex {} of {}", v, vertexCount);
-  if (mesh.triangles.empty()) return QuickCollapse{mesh, 0.0};
+  if (mesh.triangles.empty()) {
+    QuickCollapse unchanged{mesh};
+    unchanged.sourceVertex.resize(vertexCount);
+    std::iota(unchanged.sourceVertex.begin(), unchanged.sourceVertex.end(), 0u);
+    return unchanged;
+  }
   return catchLibraryErrors("meshoptimizer simplify", [&]() -> Result<QuickCollapse> {
     std::vector<unsigned int> indices;
     indices.reserve(3 * mesh.triangles.size());
@@ -127,7 +132,12 @@ Result<QuickCollapse> quickCollapse(const Scan& mesh, std::uint64_t targetFaces,
       result.mesh.triangles[i] = {kept[3 * i], kept[3 * i + 1], kept[3 * i + 2]};
     result.coincidentTriangles = dropCoincidentTriangles(result.mesh.triangles);
     result.pockets = dropPinchedPockets(result.mesh.triangles, vertexCount);
-    dropUnreferencedVertices(result.mesh);
+    std::vector<char> used(vertexCount, 0);
+    for (const Triangle& t : result.mesh.triangles)
+      for (std::uint32_t v : t) used[v] = 1;
+    for (std::uint32_t v = 0; v < vertexCount; ++v)
+      if (used[v]) result.sourceVertex.push_back(v);
+    dropUnreferencedVertices(result.mesh);  // keeps the order, so vertex i is sourceVertex[i]
     return result;
   });
 }

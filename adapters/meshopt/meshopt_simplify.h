@@ -8,11 +8,13 @@
 #include "core/geometry.h"
 
 #include <cstdint>
+#include <vector>
 
 namespace apo::meshopt_adapter {
 
 struct QuickCollapse {
   Scan mesh;                  // the input's vertices that remain, with their attributes
+  std::vector<std::uint32_t> sourceVertex;  // per vertex of `mesh`: its index in the input
   double relativeError = 0.0; // meshoptimizer's error, a fraction of the mesh's extent
   std::uint64_t coincidentTriangles = 0;  // back-to-back pairs ("fins") removed
   std::uint64_t pockets = 0;              // small pieces pinched off at a vertex, removed

@@ -1,7 +1,6 @@
 // PCL jobs over points: outlier removal, normal estimation, k-NN searches.
 #include "adapters/pcl/pcl_points.h"
 
-#include <pcl/features/normal_3d_omp.h>
 #include <pcl/filters/statistical_outlier_removal.h>
 #include <pcl/kdtree/kdtree_flann.h>
 #include <pcl/point_cloud.h>
@@ -33,31 +32,6 @@ Result<std::vector<char>> statisticalOutlierKeepMask(const std::vector<Vec3f>& p
     std::vector<char> keep(points.size(), 0);
     for (int i : kept) keep[static_cast<std::size_t>(i)] = 1;
     return keep;
-  });
-}
-
-Result<std::vector<Vec3f>> estimateNormals(const std::vector<Vec3f>& points, int k, const Vec3f& viewpoint) {
-  return catchLibraryErrors("PCL normal estimation", [&] {
-    pcl::NormalEstimationOMP<pcl::PointXYZ, pcl::Normal> estimator;
-    estimator.setInputCloud(toPcl(points));
-    estimator.setSearchMethod(std::make_shared<pcl::search::KdTree<pcl::PointXYZ>>());
-    estimator.setKSearch(k);
-    estimator.setViewPoint(viewpoint.x(), viewpoint.y(), viewpoint.z());
-    estimator.setNumberOfThreads(0);  // one per core
-    pcl::PointCloud<pcl::Normal> normals;
-    estimator.compute(normals);
-
-    std::vector<Vec3f> out(points.size());
-    for (std::size_t i = 0; i < points.size(); ++i) {
-      const auto& n = normals[i];
-      out[i] = Vec3f(n.normal_x, n.normal_y, n.normal_z);
-      const float length = out[i].norm();
-      if (!std::isfinite(length) || length == 0.0f)
-        out[i] = Vec3f::Constant(std::numeric_limits<float>::quiet_NaN());
-      else
-        out[i] /= length;
-    }
-    return out;
   });
 }
 

@@ -18,11 +18,6 @@ namespace apo::pcl_adapter {
 // its k neighbours is within mean + stdDevs * stddev over the cloud.
 Result<std::vector<char>> statisticalOutlierKeepMask(const std::vector<Vec3f>& points, int k, double stdDevs);
 
-// PCL NormalEstimationOMP over k nearest neighbours (PCA of the neighbourhood).
-// Normals are unit length and face `viewpoint`; NaN where PCL could not fit a
-// plane. Deterministic: each point's normal depends on its neighbours only.
-Result<std::vector<Vec3f>> estimateNormals(const std::vector<Vec3f>& points, int k, const Vec3f& viewpoint);
-
 // The k nearest neighbours (the point itself first) of points[queries[i]], by
 // an exact k-d tree search (PCL KdTreeFLANN).
 Result<std::vector<std::vector<int>>> nearestNeighbours(const std::vector<Vec3f>& points,

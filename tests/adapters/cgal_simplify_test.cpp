@@ -156,6 +156,35 @@ TEST(EdgeCollapse, SimplifiesATiltedPlaneGridWithGarlandHeckbert) {
   for (const Vec3f& p : coarse.points.positions) EXPECT_NEAR(normal.dot(p), 0.0f, 1e-5f);
 }
 
+// Inherited quadrics replace a vertex's own planes: told that each vertex of
+// a unit icosphere stands for the tangent planes of a sphere of radius 1.2
+// (as many as its own faces), the collapses place their vertices on that
+// sphere; without them, on the unit sphere. (Adding instead of replacing
+// would land halfway.)
+TEST(EdgeCollapse, InheritedQuadricsReplaceTheVerticesOwnPlanes) {
+  const Scan dense = test::makeIcosphere(4);
+  std::vector<int> facesAround(dense.points.size(), 0);
+  for (const Triangle& t : dense.triangles)
+    for (std::uint32_t v : t) ++facesAround[v];
+  std::vector<Eigen::Matrix4d> inherited;
+  for (std::size_t v = 0; v < dense.points.size(); ++v) {
+    Eigen::Vector4d plane;
+    plane << dense.points.positions[v].cast<double>().normalized(), -1.2;
+    inherited.push_back(facesAround[v] * plane * plane.transpose());
+  }
+  const auto medianRadius = [](const Scan& mesh) {
+    std::vector<float> radii;
+    for (const Vec3f& p : mesh.points.positions) radii.push_back(p.norm());
+    std::nth_element(radii.begin(), radii.begin() + radii.size() / 2, radii.end());
+    return radii[radii.size() / 2];
+  };
+  const Scan inheriting = edgeCollapse(dense, 300, CollapseCost::GarlandHeckbert, {}, inherited).value().mesh;
+  EXPECT_NEAR(medianRadius(inheriting), 1.2f, 0.03f);
+  const Scan own = edgeCollapse(dense, 300, CollapseCost::GarlandHeckbert).value().mesh;
+  EXPECT_NEAR(medianRadius(own), 1.0f, 0.03f);
+  EXPECT_FALSE(edgeCollapse(dense, 300, CollapseCost::GarlandHeckbert, {}, {Eigen::Matrix4d::Zero()}).ok());
+}
+
 // Two icospheres touching at one shared vertex: orient_polygon_soup splits it.
 TEST(EdgeCollapse, SplitsAVertexSharedByTwoSpheres) {
   const Scan sphere = test::makeIcosphere(2);

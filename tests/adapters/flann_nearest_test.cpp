@@ -1,6 +1,7 @@
 #include "adapters/flann/flann_search.h"
 
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include "tests/test_support.h"
 
@@ -78,6 +79,21 @@ TEST(FlannNearest, NeighbourGraphMatchesBruteForce) {
   EXPECT_EQ(small.k, 2u);
   EXPECT_EQ(small.neighbours, (std::vector<std::uint32_t>{1, 2, 0, 2, 1, 0}));
   EXPECT_EQ(nearestNeighbourGraph({}, 8).value().neighbours.size(), 0u);
+}
+
+// A regular grid is all ties: equal distances come in the order of the
+// points' indices, and the rows do not depend on the number of threads.
+TEST(FlannNearest, NeighbourGraphOrdersTiesByIndexOnAnyThreadCount) {
+  std::vector<Vec3f> grid;
+  for (int i = 0; i < 60; ++i)
+    for (int j = 0; j < 60; ++j) grid.emplace_back(static_cast<float>(i), static_cast<float>(j), 0.0f);
+  const NeighbourGraph graph = nearestNeighbourGraph(grid, 8).value();
+  // Point (10, 10) = index 610: its four at distance 1 are 550, 609, 611, 670;
+  // its four at sqrt 2 are 549, 551, 669, 671.
+  const std::vector<std::uint32_t> row(graph.neighbours.begin() + 610 * 8, graph.neighbours.begin() + 611 * 8);
+  EXPECT_EQ(row, (std::vector<std::uint32_t>{550, 609, 611, 670, 549, 551, 669, 671}));
+  tbb::global_control oneThread(tbb::global_control::max_allowed_parallelism, 1);
+  EXPECT_EQ(nearestNeighbourGraph(grid, 8).value().neighbours, graph.neighbours);
 }
 
 TEST(FlannNearest, EmptyInputs) {

@@ -47,15 +47,5 @@ TEST(StatisticalOutlierKeepMask, DropsFarPointsOnly) {
   EXPECT_GT(std::count(keep.begin(), keep.end(), 1), 2950);
 }
 
-TEST(EstimateNormals, PlaneNormalsFaceTheViewpoint) {
-  std::vector<Vec3f> plane;
-  for (int i = 0; i < 40; ++i)
-    for (int j = 0; j < 40; ++j) plane.emplace_back(i * 0.1f, j * 0.1f, 0.0f);
-  for (const Vec3f& viewpoint : {Vec3f(0, 0, 5), Vec3f(0, 0, -5)}) {
-    const auto normals = estimateNormals(plane, 10, viewpoint).value();
-    for (const Vec3f& n : normals) EXPECT_NEAR(n.z(), viewpoint.z() > 0 ? 1.0f : -1.0f, 1e-5f);
-  }
-}
-
 }  // namespace
 }  // namespace apo::pcl_adapter

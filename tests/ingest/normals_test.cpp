@@ -90,6 +90,31 @@ TEST(EstimateOrientedNormals, ViewpointInsideTheSphereTurnsNormalsInwards) {
   for (std::size_t i = 0; i < points.size(); ++i) EXPECT_LT(angleDegrees(result.normals[i], centre - points[i]), 10.0f) << i;
 }
 
+// A tilted plane far from the origin (georeferenced coordinates): every
+// normal is the plane's own, facing the viewpoint, whichever side it is on.
+TEST(EstimateOrientedNormals, PlaneNormalsAreExactAndFaceTheViewpoint) {
+  const Vec3f u = Vec3f(1, 0, 0.5f).normalized(), v = Vec3f(0, 1, -0.25f).normalized();
+  const Vec3f truth = u.cross(v).normalized();
+  const Vec3f corner(5000.0f, -3000.0f, 200.0f);
+  std::vector<Vec3f> plane;
+  for (int i = 0; i < 40; ++i)
+    for (int j = 0; j < 40; ++j) plane.push_back(corner + 0.1f * i * u + 0.1f * j * v);
+  for (float side : {1.0f, -1.0f}) {
+    Viewpoint sensor;
+    sensor.origin = corner + side * 5.0f * truth;
+    const OrientedNormals result = estimateOrientedNormals(plane, sensor, 10).value();
+    for (const Vec3f& n : result.normals) EXPECT_LT(angleDegrees(n, side * truth), 0.1f);  // float positions near 5000
+  }
+}
+
+// Coincident points and fewer than three points fit no plane: NaN normals.
+TEST(EstimateOrientedNormals, NeighbourhoodsWithoutExtentHaveNoNormal) {
+  const std::vector<Vec3f> same(20, Vec3f(1, 2, 3));
+  for (const Vec3f& n : estimateOrientedNormals(same, std::nullopt, 8).value().normals) EXPECT_FALSE(n.allFinite());
+  const std::vector<Vec3f> pair{Vec3f(0, 0, 0), Vec3f(1, 0, 0)};
+  for (const Vec3f& n : estimateOrientedNormals(pair, std::nullopt, 8).value().normals) EXPECT_FALSE(n.allFinite());
+}
+
 TEST(ChooseNeighbourCount, NoiseAsksForLargerNeighbourhoods) {
   const Vec3f centre = Vec3f::Zero();
   const int clean = chooseNeighbourCount(noisySphere(20000, 0.0f, centre)).value();
