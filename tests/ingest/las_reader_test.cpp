@@ -10,11 +10,13 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <array>
 #include <bit>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -264,6 +266,63 @@ TEST(LasReader, RefusesTheBrokenRealFilesSayingWhy) {
   EXPECT_THAT(lasFailure(realFile("garbage_nVariableLength.las")),
               HasSubstr("header claims 719 LAS points in format 0 (20 bytes each) but only 14374 bytes follow"));
   EXPECT_THAT(lasFailure(realFile("no-points.las")), HasSubstr("no points"));
+}
+
+// What @loaders.gl/las (an independent reader, npm, pinned in
+// package-lock.json and installed by setup.sh) reads from a real file.
+nlohmann::json readByLoadersGl(const std::string& name) {
+  const fs::path source(APO_SOURCE_DIR);
+  const fs::path output = fs::path(testing::TempDir()) / (name + ".loadersgl.json");
+  const std::string command = "node '" + (source / "tests/ingest/loadersgl_las.mjs").string() + "' '" +
+                              (source / "fuzz/corpus/las" / name).string() + "' > '" + output.string() + "'";
+  const int status = std::system(command.c_str());
+  std::ifstream in(output);
+  const nlohmann::json read = nlohmann::json::parse(in, nullptr, false);
+  EXPECT_EQ(status, 0) << command << ": " << read.dump().substr(0, 300);
+  return read;
+}
+
+// Every real file of LAS 1.0 to 1.3 that both read (loaders.gl refuses 1.4,
+// whose point formats 6 to 10 the test above writes field by field): the
+// same points in the same order, at the same world coordinates (ours are a
+// double origin plus float offsets), with the same intensity,
+// classification and colour (loaders.gl turns 16-bit channels into bytes
+// by dividing by 256, as we do by shifting).
+TEST(LasReader, AgreesWithLoadersGlOnTheRealFiles) {
+  for (const char* name : {"simple.las", "1.2-with-color.las", "100-points.las", "prec3.las",
+                           "hextest.las", "gps-time-nan.las", "utm15.las", "spec_3.las", "bad_vlr_count.las",
+                           "interesting.las", "lots_of_vlr.las", "permutations_1.0_0.las", "permutations_1.0_1.las",
+                           "permutations_1.1_0.las", "permutations_1.1_1.las", "permutations_1.2_0.las",
+                           "permutations_1.2_1.las", "permutations_1.2_2.las", "permutations_1.2_3.las"}) {
+    SCOPED_TRACE(name);
+    const nlohmann::json theirs = readByLoadersGl(name);
+    ASSERT_TRUE(theirs.contains("positions")) << theirs.dump().substr(0, 300);
+    const Scan ours = readers::readLas(realFile(name));
+    ASSERT_EQ(ours.points.size(), theirs["points"].get<std::size_t>());
+    ASSERT_EQ(theirs["positions"].size(), 3 * ours.points.size());
+    for (std::size_t i = 0; i < ours.points.size(); ++i)
+      for (int axis = 0; axis < 3; ++axis) {
+        const float local = ours.points.positions[i][axis];
+        const double world = ours.origin[axis] + local;
+        // float's step at the offset from the origin, and double's rounding
+        // of scale x integer + offset.
+        const double slack = 1e-7 * std::abs(local) + 1e-12 * std::max(1.0, std::abs(world));
+        ASSERT_NEAR(world, theirs["positions"][3 * i + axis].get<double>(), slack) << "point " << i << " axis " << axis;
+      }
+    ASSERT_EQ(ours.points.intensities.size(), ours.points.size());
+    for (std::size_t i = 0; i < ours.points.size(); ++i) {
+      ASSERT_EQ(ours.points.intensities[i], theirs["intensity"][i].get<double>()) << "point " << i;
+      ASSERT_EQ(ours.points.classifications[i], theirs["classification"][i].get<int>()) << "point " << i;
+    }
+    ASSERT_EQ(ours.points.hasColors(), !theirs["colors"].is_null());
+    for (std::size_t i = 0; i < ours.points.colors.size(); ++i) {
+      const Rgb8 colour = ours.points.colors[i];
+      ASSERT_EQ((std::array<int, 3>{colour.r, colour.g, colour.b}),
+                (std::array<int, 3>{theirs["colors"][3 * i].get<int>(), theirs["colors"][3 * i + 1].get<int>(),
+                                    theirs["colors"][3 * i + 2].get<int>()}))
+          << "point " << i;
+    }
+  }
 }
 
 }  // namespace
