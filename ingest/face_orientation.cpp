@@ -150,7 +150,7 @@ Result<std::uint64_t> followNearestDecided(const Scan& mesh, const std::vector<s
 
 }  // namespace
 
-Result<FaceOrientation> orientFacesOutward(Scan& mesh, const RayCaster& caster) {
+Result<FaceOrientation> orientFacesOutward(Scan& mesh, const CasterFactory& makeCaster) {
   FaceOrientation result;
   if (!mesh.isMesh()) return result;
   const MeshPieces pieces = meshPieces(mesh);
@@ -160,7 +160,12 @@ Result<FaceOrientation> orientFacesOutward(Scan& mesh, const RayCaster& caster) 
   const std::vector<char> closed = closedComponents(mesh, component, count);
   const std::vector<double> volume = signedVolumes(mesh, component, count);
   const bool anyOpen = std::find(closed.begin(), closed.end(), 0) != closed.end();
-  const std::vector<Votes> votes = anyOpen ? visibilityVotes(mesh, caster, component, count) : std::vector<Votes>(count);
+  std::vector<Votes> votes(count);
+  if (anyOpen) {
+    const auto caster = makeCaster(mesh);
+    if (!caster) return caster.error();
+    votes = visibilityVotes(mesh, **caster, component, count);
+  }
 
   std::vector<char> flip(count, 0), undecided(count, 0);
   for (std::uint32_t c = 0; c < count; ++c) {

@@ -8,6 +8,8 @@
 #include "core/ray_caster.h"
 
 #include <cstdint>
+#include <functional>
+#include <memory>
 
 namespace apo::faces {
 
@@ -25,11 +27,13 @@ struct FaceOrientation {
 // winding reversed): a closed piece (every edge shared by exactly two of its
 // triangles) is inward when its signed volume is negative; an open piece
 // (a range scan, a terrain) when rays from 64 directions outside the mesh,
-// cast through `caster` (built over `mesh` as it is), see the back of its
+// cast through a caster `makeCaster` builds over `mesh` as it is (only when
+// a piece is open: closed meshes need no rays), see the back of its
 // triangles more than twice as often as the front (a lone sheet, seen from
 // both sides alike, stays as it is). A piece fewer than 8 rays reach agrees
 // with the decided triangles nearest to it. Deterministic. Internal error
-// when the nearest-triangle search fails.
-Result<FaceOrientation> orientFacesOutward(Scan& mesh, const RayCaster& caster);
+// when the nearest-triangle search or the caster fails.
+using CasterFactory = std::function<Result<std::unique_ptr<RayCaster>>(const Scan&)>;
+Result<FaceOrientation> orientFacesOutward(Scan& mesh, const CasterFactory& makeCaster);
 
 }  // namespace apo::faces

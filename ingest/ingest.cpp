@@ -88,9 +88,7 @@ void cleanMesh(Scan& scan, const IngestOptions& options, IngestReport& report) {
 // the faces (they were written for the winding that was wrong, or disagree).
 Status orientMeshFaces(Scan& scan, IngestReport& report) {
   Stopwatch watch;
-  auto caster = makeEmbreeMeshCaster(scan);
-  if (!caster) return caster.error();
-  const auto oriented = faces::orientFacesOutward(scan, **caster);
+  const auto oriented = faces::orientFacesOutward(scan, makeEmbreeMeshCaster);
   if (!oriented) return oriented.error();
   const faces::FaceOrientation& found = *oriented;
   report.faceOrientation = {true,           found.components,   found.flippedComponents, found.flippedTriangles,

@@ -36,8 +36,7 @@ double outwardFraction(const Scan& mesh, const Vec3f& centre = Vec3f::Zero()) {
 }
 
 FaceOrientation orient(Scan& mesh) {
-  const auto caster = makeEmbreeMeshCaster(mesh).value();
-  return orientFacesOutward(mesh, *caster).value();
+  return orientFacesOutward(mesh, makeEmbreeMeshCaster).value();
 }
 
 // The triangles of `sphere` whose centroid lies within `angle` of `axis`, as
@@ -65,6 +64,24 @@ TEST(OrientFacesOutward, AClosedSphereWoundInwardIsFlippedByItsVolume) {
   Scan outward = test::makeIcosphere(3);
   EXPECT_EQ(orient(outward).flippedTriangles, 0u);
   EXPECT_EQ(outwardFraction(outward), 1.0);
+}
+
+// Closed pieces need no rays: no caster is built for them. An open piece
+// asks for one, and the caster's failure is the call's.
+TEST(OrientFacesOutward, BuildsACasterOnlyForOpenPieces) {
+  int built = 0;
+  const CasterFactory failing = [&](const Scan&) -> Result<std::unique_ptr<RayCaster>> {
+    ++built;
+    return internalError("no caster here");
+  };
+  Scan closed = flipped(test::makeIcosphere(3));
+  EXPECT_EQ(orientFacesOutward(closed, failing).value().flippedComponents, 1u);
+  EXPECT_EQ(built, 0);
+  Scan open = cap(test::makeIcosphere(3), Vec3f::UnitZ(), 0.5f);
+  const auto result = orientFacesOutward(open, failing);
+  ASSERT_FALSE(result.ok());
+  EXPECT_EQ(result.error().message, "no caster here");
+  EXPECT_EQ(built, 1);
 }
 
 TEST(OrientFacesOutward, OnlyThePieceWoundInwardIsFlipped) {
