@@ -217,8 +217,8 @@ class BucketQueue {
     std::uint32_t to, from;
   };
 
-  void push(float weight, Edge edge) {
-    const int bucket = std::clamp(static_cast<int>(weight * kBuckets), 0, kBuckets - 1);
+  static int bucketOf(float weight) { return std::clamp(static_cast<int>(weight * kBuckets), 0, kBuckets - 1); }
+  void push(int bucket, Edge edge) {
     buckets_[bucket].push_back(edge);
     lowest_ = std::min(lowest_, bucket);
     ++size_;
@@ -248,8 +248,13 @@ class BucketQueue {
 // queue), turning each normal to agree with the one it was reached from.
 // Nearly parallel normals are passed on first, so a flip crosses sharp
 // creases and thin sheets last.
+// `lightest[i]` is the lightest bucket point i was queued with (kBuckets
+// before): an edge to it no lighter can never be the one it is reached
+// through (the lighter one, or the earlier of equal ones, is popped first),
+// so it is not queued; the tree is the same, with far fewer pushes.
 void propagateFromHighest(const Adjacency& graph, const std::vector<Vec3f>& points, std::vector<Vec3f>& normals,
-                          const std::vector<std::uint32_t>& component, std::vector<char>& visited) {
+                          const std::vector<std::uint32_t>& component, std::vector<char>& visited,
+                          std::vector<std::uint16_t>& lightest) {
   const std::uint32_t seed = *std::max_element(component.begin(), component.end(), [&](std::uint32_t a, std::uint32_t b) {
     return std::tie(points[a].z(), b) < std::tie(points[b].z(), a);
   });
@@ -259,7 +264,11 @@ void propagateFromHighest(const Adjacency& graph, const std::vector<Vec3f>& poin
     visited[from] = 1;
     for (std::uint64_t e = graph.offsets[from]; e < graph.offsets[from + 1]; ++e) {
       const std::uint32_t to = graph.adjacency[e];
-      if (!visited[to]) frontier.push(1.0f - std::abs(normals[from].dot(normals[to])), {to, from});
+      if (visited[to]) continue;
+      const int bucket = BucketQueue::bucketOf(1.0f - std::abs(normals[from].dot(normals[to])));
+      if (bucket >= lightest[to]) continue;
+      lightest[to] = static_cast<std::uint16_t>(bucket);
+      frontier.push(bucket, {to, from});
     }
   };
   pushEdgesOf(seed);
@@ -280,13 +289,14 @@ Result<IslandOrientation> orientByPropagation(const std::vector<Vec3f>& points, 
   IslandOrientation result;
   const Adjacency graph = symmetricGraph(nearest, columns, points.size());
   std::vector<char> visited(points.size(), 0);
+  std::vector<std::uint16_t> lightest(points.size(), BucketQueue::kBuckets);
   std::vector<std::uint32_t> oriented, leftovers;
   for (const auto& component : graphComponents(graph, points.size())) {
     if (component.size() <= columns) {
       leftovers.insert(leftovers.end(), component.begin(), component.end());
       continue;
     }
-    propagateFromHighest(graph, points, normals, component, visited);
+    propagateFromHighest(graph, points, normals, component, visited, lightest);
     oriented.insert(oriented.end(), component.begin(), component.end());
     ++result.islands;
   }

@@ -32,7 +32,7 @@ struct PointsView {
 
 using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, PointsView>, PointsView, 3,
                                                  std::uint32_t>;
-constexpr std::size_t kLeafSize = 10;
+constexpr std::size_t kLeafSize = 20;
 constexpr std::size_t kRowsPerTask = 4096;
 
 // Row i of the graph: the k + 1 nearest points of point i with i itself left
