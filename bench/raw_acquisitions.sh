@@ -68,7 +68,7 @@ echo
 
 echo "### Orienting a 1M-point scan without sensor position (ingest, whole process)"
 echo
-scan="$out/bunny_scan.ply"
+scan="$out/bunny_scan_n.ply"
 [ -f "$scan" ] || $apo -q simulate-scan "$big" -o "$scan" --views 8 --rays 700 --normals >>"$out/log.txt"
 echo "| orientation | seconds | peak MiB | normals step s | points | flipped fraction | mean angle to truth (deg) |"
 echo "|---|---|---|---|---|---|---|"
