@@ -66,6 +66,8 @@ void addIngestOptions(CLI::App& app, IngestArguments& arguments) {
                  "auto decides from the overlap of its pieces")
       ->check(CLI::IsMember({"auto", "surface", "scans"}))
       ->capture_default_str();
+  app.add_flag("!--no-grid-mesh", o.triangulateGrid,
+               "Read an organised cloud (a depth frame) as loose points instead of triangulating its grid");
   app.add_flag("!--keep-winding", o.orientFaces,
                "Keep mesh faces as wound in the file (by default pieces wound inward are flipped)");
   app.add_option("--orient", arguments.orient,

@@ -62,6 +62,10 @@ struct Scan {
   // it, in double precision, so that float positions keep the scan's
   // detail; zero for everything else. Every stage keeps it.
   std::array<double, 3> origin = {0.0, 0.0, 0.0};
+  // Organised clouds (a depth frame, PCD HEIGHT > 1): the points are rows of
+  // this many, one per pixel, missing returns kept in place as NaN; 0 for
+  // everything else. Ingest triangulates the grid (docs/ingest.md).
+  std::uint32_t gridWidth = 0;
   // What the reader skipped or turned into something else, in words
   // ("element 'edge' (120 items) skipped"), for ingest.json.
   std::vector<std::string> readNotes;

@@ -45,6 +45,7 @@ std::size_t keepPoints(Scan& scan, const std::vector<char>& keep) {
   compact(points.returnNumbers, keep);
   compact(points.returnCounts, keep);
   remapTriangles(scan.triangles, newIndex);
+  scan.gridWidth = 0;  // rows with points taken out are no longer a grid
   return removed;
 }
 

@@ -10,6 +10,7 @@
 #include "ingest/face_orientation.h"
 #include "ingest/mesh_input.h"
 #include "ingest/normals.h"
+#include "ingest/range_grid.h"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -100,6 +101,39 @@ Status orientMeshFaces(Scan& scan, IngestReport& report) {
     scan.points.normals.clear();
   }
   return okStatus();
+}
+
+// An organised cloud (a depth frame) becomes one view's mesh: its grid
+// triangulated as range software does, cut at depth jumps and grazing
+// cells, each triangle facing the sensor; pixels without a return are then
+// dropped with the other non-finite points. Left as points when no two
+// neighbouring pixels have returns.
+void triangulateOrganizedGrid(Scan& scan, const IngestOptions& options, IngestReport& report) {
+  IngestReport::GridMesh& grid = report.gridMesh;
+  grid.width = scan.gridWidth;
+  grid.height = scan.points.size() / scan.gridWidth;
+  grid.sensorSource = options.sensorPosition ? "--sensor" : scan.viewpoint ? "viewpoint" : "origin";
+  grid.sensor = options.sensorPosition ? *options.sensorPosition : scan.viewpoint ? scan.viewpoint->origin : Vec3f::Zero();
+  std::vector<std::uint32_t> index(scan.points.size(), range_grid::kNoReturn);
+  for (std::uint32_t i = 0; i < index.size(); ++i) {
+    if (scan.points.positions[i].allFinite()) index[i] = i;
+    else ++grid.missing;
+  }
+  grid.angularStep = range_grid::medianAngularStep(scan.points.positions, grid.width, grid.sensor);
+  if (grid.angularStep <= 0.0) {
+    spdlog::warn("ingest: organised {} x {} cloud with no two neighbouring returns: read as points", grid.width, grid.height);
+    return;
+  }
+  const range_grid::GridTriangles made =
+      range_grid::triangulate(index, grid.width, grid.height, grid.sensor, static_cast<float>(grid.angularStep), scan);
+  grid.made = made.triangles > 0;
+  grid.candidates = made.candidates;
+  grid.triangles = made.triangles;
+  grid.refused = made.refused;
+  spdlog::info("ingest: organised {} x {} cloud ({} pixels without a return) triangulated on its grid from the {} "
+               "at ({}, {}, {}): {} triangles, {} refused across depth jumps or grazing",
+               grid.width, grid.height, grid.missing, grid.sensorSource, grid.sensor.x(), grid.sensor.y(),
+               grid.sensor.z(), made.triangles, made.refused);
 }
 
 // One surface, or overlapping range scans whose points become the scan
@@ -250,6 +284,10 @@ Result<IngestResult> ingestScan(const fs::path& path, const IngestOptions& optio
                path.string(), report.format, report.readSeconds);
   if (scan.points.size() == 0) return badInput("{}: contains no points", path.string());
 
+  if (!scan.isMesh() && scan.gridWidth > 0 && options.triangulateGrid) {
+    triangulateOrganizedGrid(scan, options, report);
+    report.isMesh = scan.isMesh();
+  }
   runStep(report, "drop_non_finite", [&] { return cleaning::dropNonFinitePoints(scan); });
   if (scan.points.size() == 0)
     return badInput("{}: all {} points have non-finite coordinates", path.string(), report.pointsIn);
@@ -258,9 +296,10 @@ Result<IngestResult> ingestScan(const fs::path& path, const IngestOptions& optio
     cleanMesh(scan, options, report);
     if (!scan.isMesh())
       return badInput("{}: no valid triangle remains after cleaning ({} read)", path.string(), report.trianglesIn);
-    if (options.orientFaces) APO_RETURN_IF_ERROR(orientMeshFaces(scan, report));
+    // A depth frame's triangles already face its sensor, and one view is one surface.
+    if (options.orientFaces && !report.gridMesh.made) APO_RETURN_IF_ERROR(orientMeshFaces(scan, report));
     meshNormals(scan, report);
-    APO_RETURN_IF_ERROR(decideMeshInput(scan, options, report));
+    if (!report.gridMesh.made) APO_RETURN_IF_ERROR(decideMeshInput(scan, options, report));
   } else {
     APO_RETURN_IF_ERROR(cleanPointCloud(scan, options, report, path));
     APO_RETURN_IF_ERROR(pointCloudNormals(scan, options, report, path));
@@ -314,6 +353,16 @@ std::string ingestReportJson(const IngestReport& report) {
                                                             {"boundary_edge_fraction", mi.boundaryEdgeFraction},
                                                             {"overlap_fraction", mi.overlapFraction},
                                                             {"median_edge_length", mi.medianEdgeLength}};
+  const auto& g = report.gridMesh;
+  json["grid_mesh"] = !g.made ? nlohmann::ordered_json(nullptr)
+                              : nlohmann::ordered_json{{"width", g.width},
+                                                       {"height", g.height},
+                                                       {"pixels_without_return", g.missing},
+                                                       {"triangles", g.triangles},
+                                                       {"refused_triangles", g.refused},
+                                                       {"angular_step", g.angularStep},
+                                                       {"sensor", vectorJson(g.sensor)},
+                                                       {"sensor_from", g.sensorSource}};
   json["read_notes"] = report.readNotes;
   const auto& f = report.faceOrientation;
   json["face_orientation"] = !f.checked ? nlohmann::ordered_json(nullptr)

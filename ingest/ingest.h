@@ -73,6 +73,9 @@ struct IngestOptions {
   // Mesh pieces wound inward are flipped (docs/ingest.md); false: kept as read.
   bool orientFaces = true;
   MeshInput meshInput = MeshInput::Auto;
+  // Organised clouds (depth frames) are triangulated on their grid
+  // (docs/ingest.md); false: read as loose points.
+  bool triangulateGrid = true;
 };
 
 // Usage error naming the option when one is out of range.
@@ -114,6 +117,16 @@ struct IngestReport {
     std::uint64_t pieces = 0;
     double boundaryEdgeFraction = 0.0, overlapFraction = 0.0, medianEdgeLength = 0.0;
   } meshInput;
+  // Organised clouds: the grid triangulated from the sensor (docs/ingest.md).
+  struct GridMesh {
+    bool made = false;
+    std::uint64_t width = 0, height = 0;
+    std::uint64_t missing = 0;                  // pixels without a return (NaN)
+    std::uint64_t candidates = 0, triangles = 0, refused = 0;  // range_grid::GridTriangles
+    double angularStep = 0.0;                   // radians between neighbouring pixels, from the data
+    Vec3f sensor = Vec3f::Zero();
+    std::string sensorSource;                   // "--sensor", "viewpoint" (the file's) or "origin"
+  } gridMesh;
   std::array<double, 3> origin = {0.0, 0.0, 0.0};  // Scan::origin: the local frame
   std::vector<std::string> readNotes;               // what the reader skipped or converted
   double readSeconds = 0.0;

@@ -12,6 +12,7 @@
 #include <bit>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <optional>
 #include <span>
 #include <string>
@@ -61,6 +62,7 @@ struct Header {
   std::uint64_t packedRecordSize = 0;  // binary_compressed: the same without padding
   Encoding encoding = Encoding::Ascii;
   std::optional<Viewpoint> viewpoint;
+  std::uint64_t width = 0, height = 1;  // the grid; HEIGHT > 1: an organised cloud
 };
 
 // a * b and a + b, or nothing when the result does not fit in 64 bits.
@@ -258,6 +260,8 @@ class HeaderReader {
     header.fields = combineFieldLines();
     header.columns = selectColumns(header.fields);
     header.points = pointCount();
+    header.width = width_.value_or(0);
+    header.height = height_.value_or(1);
     computeRecordSizes(header);
     return header;
   }
@@ -608,6 +612,9 @@ Scan readPcd(std::string_view bytes) {
   const Header header = HeaderReader(cursor).read();
   Scan scan;
   scan.viewpoint = header.viewpoint;
+  // pointCount() checked WIDTH x HEIGHT = POINTS.
+  if (header.height > 1 && header.width <= std::numeric_limits<std::uint32_t>::max())
+    scan.gridWidth = static_cast<std::uint32_t>(header.width);
   switch (header.encoding) {
     case Encoding::Ascii: readAsciiBody(cursor, bytes.size() - cursor.offset(), header, scan.points); break;
     case Encoding::Binary: readBinaryBody(bytes, cursor.offset(), header, scan.points); break;

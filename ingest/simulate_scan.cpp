@@ -1,5 +1,6 @@
 // Virtual range scanner: known shapes in, realistic scans out.
 #include "ingest/ingest.h"
+#include "ingest/range_grid.h"
 
 #include <Eigen/Geometry>
 
@@ -41,43 +42,6 @@ Eigen::Affine3f misregistration(std::mt19937_64& random, const Vec3f& centre, fl
          Eigen::Translation3f(-centre);
 }
 
-// A grid cell is triangulated only when its edges are at most this many
-// times the ray spacing at its depth (no bridge across a depth jump) and its
-// triangles face the scanner by at least this cosine (grazing triangles
-// dropped, as range software does).
-constexpr float kMaxEdgeInSpacings = 4.0f;
-constexpr float kMinFacingCosine = 0.1f;
-
-// The triangles of one view's grid: `index` maps grid cells to vertex
-// indices (kNone where the ray missed).
-void triangulateRangeGrid(const std::vector<std::uint32_t>& index, int side, const Vec3f& origin, float angularStep,
-                          Scan& soup) {
-  constexpr std::uint32_t kNone = ~0u;
-  const auto& p = soup.points.positions;
-  auto acceptable = [&](std::uint32_t a, std::uint32_t b, std::uint32_t c) {
-    const Vec3f centroid = (p[a] + p[b] + p[c]) / 3.0f;
-    const float spacing = angularStep * (centroid - origin).norm();
-    const float longest = std::max({(p[a] - p[b]).norm(), (p[b] - p[c]).norm(), (p[c] - p[a]).norm()});
-    const Vec3f normal = (p[b] - p[a]).cross(p[c] - p[a]);
-    const float facing = normal.norm() > 0.0f ? normal.normalized().dot((origin - centroid).normalized()) : 0.0f;
-    return longest <= kMaxEdgeInSpacings * spacing && std::abs(facing) >= kMinFacingCosine;
-  };
-  auto add = [&](std::uint32_t a, std::uint32_t b, std::uint32_t c) {
-    if (a == kNone || b == kNone || c == kNone || !acceptable(a, b, c)) return;
-    // Wound to face the scanner (outward, for a scanner outside the object).
-    const Vec3f normal = (p[b] - p[a]).cross(p[c] - p[a]);
-    if (normal.dot(origin - p[a]) < 0.0f) soup.triangles.push_back({a, c, b});
-    else soup.triangles.push_back({a, b, c});
-  };
-  for (int row = 0; row + 1 < side; ++row)
-    for (int column = 0; column + 1 < side; ++column) {
-      const std::uint32_t a = index[row * side + column], b = index[row * side + column + 1],
-                          c = index[(row + 1) * side + column], d = index[(row + 1) * side + column + 1];
-      add(a, b, d);
-      add(a, d, c);
-    }
-}
-
 }  // namespace
 
 Status validateSimulateScanOptions(const SimulateScanOptions& options) {
@@ -113,7 +77,7 @@ Result<SimulatedScan> simulateScan(const Scan& mesh, const RayCaster& caster, co
     const Eigen::Affine3f motion =
         misregistration(random, centre, misregistrationSize, misregistrationSize * box.diagonal());
     std::uint32_t kept = 0;
-    std::vector<std::uint32_t> gridIndex(rays.size(), ~0u);
+    std::vector<std::uint32_t> gridIndex(rays.size(), range_grid::kNoReturn);
     for (std::size_t i = 0; i < rays.size(); ++i) {
       if (!hits[i].hit()) continue;
       gridIndex[i] = static_cast<std::uint32_t>(result.scan.points.positions.size());
@@ -129,7 +93,8 @@ Result<SimulatedScan> simulateScan(const Scan& mesh, const RayCaster& caster, co
     if (options.asMesh) {
       const float angularStep = 2.0f * radius / std::sqrt(std::max(1e-12f, (centre - origin).squaredNorm() - radius * radius)) /
                                 static_cast<float>(options.raysPerSide);
-      triangulateRangeGrid(gridIndex, options.raysPerSide, motion * origin, angularStep, result.scan);
+      range_grid::triangulate(gridIndex, static_cast<std::size_t>(options.raysPerSide),
+                              static_cast<std::size_t>(options.raysPerSide), motion * origin, angularStep, result.scan);
     }
     result.viewOrigins.push_back(origin);
     result.pointsPerView.push_back(kept);

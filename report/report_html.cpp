@@ -666,6 +666,13 @@ std::string ingestDecisionRows(const Json* ingest) {
                                                 count(numberAt(input, {"pieces"})),
                                                 overlap ? fmt::format("{:.0f}%", 100.0 * *overlap) : kNone));
   }
+  if (const Json* grid = at(ingest, {"grid_mesh"}); grid != nullptr && grid->is_object())
+    html += row("organised cloud triangulated on its grid",
+                count(numberAt(grid, {"width"})) + " x " + count(numberAt(grid, {"height"})) + " pixels, " +
+                    count(numberAt(grid, {"pixels_without_return"})) + " without a return; " +
+                    count(numberAt(grid, {"triangles"})) + " triangles facing the sensor (" +
+                    escaped(textAt(grid, {"sensor_from"})) + "), " + count(numberAt(grid, {"refused_triangles"})) +
+                    " refused across depth jumps or grazing");
   if (const Json* faces = at(ingest, {"face_orientation"}); faces != nullptr && faces->is_object() &&
                                                              numberAt(faces, {"flipped_triangles"}).value_or(0) > 0)
     html += row("faces wound inward, flipped", count(numberAt(faces, {"flipped_triangles"})) + " triangles in " +

@@ -49,6 +49,82 @@ TEST(IngestScan, PointCloudIsCleanedAndGetsOutwardNormals) {
   for (std::size_t i = 0; i < points.size(); ++i) EXPECT_GT(points.normals[i].dot(points.positions[i]), 0.9f) << i;
 }
 
+// A depth frame seen from the origin down +z: a ball of radius 0.5 at
+// z = 3 in front of a wall at z = 5 that fills only part of the view (other
+// pixels have no return), as an organised PCD. Ground truth by ray casting
+// in closed form.
+struct DepthFrame {
+  std::string pcd;
+  std::size_t missing = 0;
+};
+DepthFrame ballBeforeAWall(int width, int height) {
+  DepthFrame frame;
+  frame.pcd = fmt::format("VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH {}\nHEIGHT {}\n"
+                          "VIEWPOINT 0 0 0 1 0 0 0\nPOINTS {}\nDATA ascii\n",
+                          width, height, width * height);
+  const Eigen::Vector3d centre(0.0, 0.0, 3.0);
+  for (int row = 0; row < height; ++row)
+    for (int column = 0; column < width; ++column) {
+      const Eigen::Vector3d ray =
+          Eigen::Vector3d((column - width / 2.0) / width, (row - height / 2.0) / width, 1.0).normalized();
+      const double along = ray.dot(centre), gap = along * along - (centre.squaredNorm() - 0.25);
+      Eigen::Vector3d hit;
+      if (gap >= 0.0) hit = (along - std::sqrt(gap)) * ray;
+      else hit = (5.0 / ray.z()) * ray;
+      if (gap < 0.0 && std::abs(hit.x()) > 1.5) {
+        frame.pcd += "nan nan nan\n";
+        ++frame.missing;
+      } else {
+        frame.pcd += fmt::format("{} {} {}\n", hit.x(), hit.y(), hit.z());
+      }
+    }
+  return frame;
+}
+
+TEST(IngestScan, ADepthFrameIsTriangulatedOnItsGridAndCutAtDepthJumps) {
+  const fs::path path = test::freshTempDir() / "frame.pcd";
+  const DepthFrame frame = ballBeforeAWall(80, 60);
+  test::writeBytes(path, frame.pcd);
+  auto result = ingestScan(path, IngestOptions{});
+  ASSERT_TRUE(result.ok()) << result.error().message;
+  const IngestReport& report = result->report;
+  const Scan& mesh = result->scan;
+  EXPECT_TRUE(report.isMesh);
+  ASSERT_TRUE(report.gridMesh.made);
+  EXPECT_EQ(report.gridMesh.width, 80u);
+  EXPECT_EQ(report.gridMesh.height, 60u);
+  EXPECT_EQ(report.gridMesh.missing, frame.missing);
+  EXPECT_GT(frame.missing, 0u);
+  EXPECT_EQ(removedBy(report, "drop_non_finite"), frame.missing);
+  EXPECT_EQ(report.gridMesh.sensorSource, "viewpoint");
+  EXPECT_NEAR(report.gridMesh.angularStep, 1.0 / 80.0, 0.1 / 80.0);
+  EXPECT_GT(report.gridMesh.refused, 0u);  // the ball's silhouette against the wall
+  EXPECT_EQ(report.normalsSource, "computed_from_faces");
+  EXPECT_FALSE(report.faceOrientation.checked);
+  EXPECT_FALSE(report.meshInput.checked);
+  // No triangle joins the ball to the wall; every one faces the sensor.
+  const auto onBall = [](const Vec3f& p) { return std::abs((p - Vec3f(0, 0, 3)).norm() - 0.5f) < 1e-3f; };
+  ASSERT_EQ(mesh.triangles.size(), report.gridMesh.triangles);
+  for (const Triangle& t : mesh.triangles) {
+    const auto& p = mesh.points.positions;
+    EXPECT_TRUE((onBall(p[t[0]]) == onBall(p[t[1]])) && (onBall(p[t[1]]) == onBall(p[t[2]])));
+    EXPECT_LT((p[t[1]] - p[t[0]]).cross(p[t[2]] - p[t[0]]).dot(p[t[0]]), 0.0f);
+  }
+  for (std::size_t i = 0; i < mesh.points.size(); ++i)
+    EXPECT_LT(mesh.points.normals[i].dot(mesh.points.positions[i].normalized()), -0.1f) << i;
+  const auto json = nlohmann::json::parse(ingestReportJson(report));
+  EXPECT_EQ(json["grid_mesh"]["pixels_without_return"], frame.missing);
+  EXPECT_EQ(json["grid_mesh"]["triangles"], mesh.triangles.size());
+
+  IngestOptions asPoints;
+  asPoints.triangulateGrid = false;
+  auto points = ingestScan(path, asPoints);
+  ASSERT_TRUE(points.ok()) << points.error().message;
+  EXPECT_FALSE(points->report.isMesh);
+  EXPECT_FALSE(points->report.gridMesh.made);
+  EXPECT_TRUE(nlohmann::json::parse(ingestReportJson(points->report))["grid_mesh"].is_null());
+}
+
 TEST(IngestScan, MeshSoupIsWeldedAndGetsFaceNormals) {
   // Two triangles of a square as an unwelded soup plus a degenerate and a
   // duplicate triangle and an unused vertex.
