@@ -19,6 +19,8 @@ PACKAGES=(
   # report's browser test (tests/report/browser_check.py); clang and its
   # runtime (libFuzzer, ASan, UBSan) for the fuzzers (fuzz/run.sh)
   libgtest-dev libgmock-dev libbenchmark-dev chromium chromium-driver clang libclang-rt-14-dev
+  # the independent measuring scripts of ../shared/tools/ (benchmarks only)
+  python3-numpy python3-scipy python3-open3d python3-pil
   # dataset scripts (bunzip2 for the octomap scan)
   bzip2 xz-utils
 )

@@ -3,7 +3,8 @@
 # without meshoptimizer's quick pass beside Open3D, the quick pass against
 # CGAL alone on three large meshes and three targets, normal orientation of a
 # 1M-point scan without sensor (our propagation against CGAL's MST, against
-# the scan's true normals), and meshes wound inward, in one run.
+# the scan's true normals), meshes wound inward, and depth frames (the grid
+# triangulated against Poisson, judged by ../shared/tools/scan_eval.py), in one run.
 # Usage (after the README's setup and build): bash bench/raw_acquisitions.sh [OUTDIR]
 # Prints markdown tables for docs/benchmarks.md.
 set -euo pipefail
@@ -113,4 +114,35 @@ for input in "$src" "$out/bunny00_inward.off" "$out/bunny00_soup.ply" "$out/bunn
   read -r s mem < <(measure $apo -q run "$input" -o "$out/run-$name")
   m="$out/run-$name/manifest.json"
   echo "| $name | $(json "$m" 'j["results"]["ingest"]["mesh_input"]["decision"]') | $(json "$m" '"%d / %d" % (j["results"]["ingest"]["face_orientation"]["flipped_pieces"], j["results"]["ingest"]["face_orientation"]["pieces"])') | $(json "$m" '"%.2f" % j["results"]["render"]["overall"]["apo"]["mean"]') | $(json "$m" '"%.2f" % j["results"]["render"]["overall"]["baseline"]["mean"]') | $s | $mem |"
+done
+echo
+
+echo "### Depth frames: the grid triangulated, against Poisson from the points (apo run)"
+echo
+echo "| frame | M | pixels without a return | M triangles (refused) | seconds, peak MiB | APO / m against M (deg) | silhouette mismatch | m alone / APO against the scan (deg) |"
+echo "|---|---|---|---|---|---|---|---|"
+# The truth for scan_eval.py (../shared/tools/, needs python3-numpy, -scipy,
+# -open3d): the frame's own points with PCA normals facing its sensor.
+for frame in table_scene_mug_stereo_textured milk_cartoon_all_small_clorox; do
+  input=datasets/pcl/$frame.pcd
+  $apo -q ingest "$input" -o "$out/depth-$frame-truth" --no-grid-mesh >>"$out/log.txt" 2>&1
+  for variant in grid points; do
+    flags=""; [ "$variant" = points ] && flags="--no-grid-mesh"
+    run="$out/depth-$frame-$variant"
+    read -r s mem < <(measure $apo -q run "$input" -o "$run" $flags)
+    eval_lines=$(/usr/bin/python3 ../shared/tools/scan_eval.py "$out/depth-$frame-truth/scan.ply" "$run/m.ply" \
+      "$apo -q lookup {apo} {points} -o {out}" "$run/scan.apo" | tail -n 2)
+    python3 - "$run/manifest.json" "$frame" "$variant" "$s" "$mem" "$eval_lines" <<'PY'
+import json, sys
+r = json.load(open(sys.argv[1]))["results"]
+grid, render = r["ingest"]["grid_mesh"], r["render"]["overall"]
+m_alone, apo = (line.split()[1] for line in sys.argv[6].splitlines())
+print("| %s | %s | %s | %s | %s, %s | %.2f / %.2f | %.1f%% | %s / %s |" % (
+    sys.argv[2], sys.argv[3],
+    grid["pixels_without_return"] if grid else "",
+    "%d (%d)" % (grid["triangles"], grid["refused_triangles"]) if grid else "",
+    sys.argv[4], sys.argv[5], render["apo"]["mean"], render["baseline"]["mean"],
+    100 * render["apo_image"]["silhouette_mismatch"], m_alone, apo))
+PY
+  done
 done

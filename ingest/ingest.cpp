@@ -172,6 +172,27 @@ void meshNormals(Scan& scan, IngestReport& report) {
   report.normalOrientation = "faces";
 }
 
+// A depth frame's faces join single pixels, whose depth noise they carry;
+// its vertex normals are fitted over neighbourhoods of k pixels instead (k
+// chosen as for point clouds), facing the sensor.
+Status gridMeshNormals(Scan& scan, const IngestOptions& options, IngestReport& report) {
+  Viewpoint sensor;
+  sensor.origin = report.gridMesh.sensor;
+  Stopwatch watch;
+  auto fitted = normals::estimateOrientedNormals(scan.points.positions, sensor, options.normalNeighbours);
+  if (!fitted) return fitted.error();
+  const std::vector<Vec3f> fromFaces = areaWeightedVertexNormals(scan);
+  scan.points.normals = std::move(fitted->normals);
+  // A vertex whose neighbourhood fits no plane keeps its faces' normal.
+  for (std::size_t i = 0; i < scan.points.size(); ++i)
+    if (!scan.points.normals[i].allFinite()) scan.points.normals[i] = fromFaces[i];
+  report.normalSeconds = watch.seconds();
+  report.normalsSource = "estimated";
+  report.normalOrientation = "viewpoint";
+  report.normalNeighbours = fitted->neighbours;
+  return okStatus();
+}
+
 Status cleanPointCloud(Scan& scan, const IngestOptions& options, IngestReport& report, const fs::path& path) {
   if (options.mergeDuplicates) runStep(report, "merge_duplicate_points", [&] { return cleaning::mergeDuplicatePoints(scan); });
   if (options.removeOutliers) {
@@ -298,7 +319,8 @@ Result<IngestResult> ingestScan(const fs::path& path, const IngestOptions& optio
       return badInput("{}: no valid triangle remains after cleaning ({} read)", path.string(), report.trianglesIn);
     // A depth frame's triangles already face its sensor, and one view is one surface.
     if (options.orientFaces && !report.gridMesh.made) APO_RETURN_IF_ERROR(orientMeshFaces(scan, report));
-    meshNormals(scan, report);
+    if (report.gridMesh.made) APO_RETURN_IF_ERROR(gridMeshNormals(scan, options, report));
+    else meshNormals(scan, report);
     if (!report.gridMesh.made) APO_RETURN_IF_ERROR(decideMeshInput(scan, options, report));
   } else {
     APO_RETURN_IF_ERROR(cleanPointCloud(scan, options, report, path));

@@ -99,7 +99,8 @@ TEST(IngestScan, ADepthFrameIsTriangulatedOnItsGridAndCutAtDepthJumps) {
   EXPECT_EQ(report.gridMesh.sensorSource, "viewpoint");
   EXPECT_NEAR(report.gridMesh.angularStep, 1.0 / 80.0, 0.1 / 80.0);
   EXPECT_GT(report.gridMesh.refused, 0u);  // the ball's silhouette against the wall
-  EXPECT_EQ(report.normalsSource, "computed_from_faces");
+  EXPECT_EQ(report.normalsSource, "estimated");
+  EXPECT_EQ(report.normalOrientation, "viewpoint");
   EXPECT_FALSE(report.faceOrientation.checked);
   EXPECT_FALSE(report.meshInput.checked);
   // No triangle joins the ball to the wall; every one faces the sensor.
@@ -110,8 +111,16 @@ TEST(IngestScan, ADepthFrameIsTriangulatedOnItsGridAndCutAtDepthJumps) {
     EXPECT_TRUE((onBall(p[t[0]]) == onBall(p[t[1]])) && (onBall(p[t[1]]) == onBall(p[t[2]])));
     EXPECT_LT((p[t[1]] - p[t[0]]).cross(p[t[2]] - p[t[0]]).dot(p[t[0]]), 0.0f);
   }
-  for (std::size_t i = 0; i < mesh.points.size(); ++i)
-    EXPECT_LT(mesh.points.normals[i].dot(mesh.points.positions[i].normalized()), -0.1f) << i;
+  // Normals fitted over pixel neighbourhoods, facing the sensor: the ball's
+  // radial within a few degrees away from its rim, the wall's -z.
+  for (std::size_t i = 0; i < mesh.points.size(); ++i) {
+    const Vec3f& p = mesh.points.positions[i];
+    const Vec3f& n = mesh.points.normals[i];
+    EXPECT_LT(n.dot(p.normalized()), 0.0f) << i;
+    const Vec3f radial = (p - Vec3f(0, 0, 3)).normalized();
+    if (onBall(p) && radial.z() < -0.5f) EXPECT_GT(n.dot(radial), 0.99f) << i;
+    if (std::abs(p.z() - 5.0f) < 1e-3f && std::hypot(p.x(), p.y()) > 1.0f) EXPECT_GT(-n.z(), 0.999f) << i;
+  }
   const auto json = nlohmann::json::parse(ingestReportJson(report));
   EXPECT_EQ(json["grid_mesh"]["pixels_without_return"], frame.missing);
   EXPECT_EQ(json["grid_mesh"]["triangles"], mesh.triangles.size());
