@@ -172,6 +172,14 @@ class Run {
     std::vector<Camera> cameras;
     for (const ViewImages& view : *views) cameras.push_back(view.camera);
     manifest_["results"]["render"] = Json::parse(renderReportJson(figures, settings_.options.render, cameras));
+    // A point scan's M is a reconstruction: the asset is judged against the
+    // scan's own points too (docs/render.md, "Against the scan").
+    manifest_["results"]["render"]["against_scan"] = nullptr;
+    if (!data_.scan.isMesh() && data_.scan.points.hasNormals()) {
+      auto fidelity = measureAgainstScan(data_.scan.points, data_.dense, data_.coarse, data_.texture);
+      if (!fidelity) return aboutInput(settings_.input, fidelity.error());
+      manifest_["results"]["render"]["against_scan"] = Json::parse(scanFidelityJson(*fidelity));
+    }
     addFile("renders", kRenderFolder);
     return okStatus();
   }

@@ -210,4 +210,26 @@ struct WalkAgreement {
 };
 Result<WalkAgreement> compareWalkWithCpu(const Scan& coarse, const ApoTexture& apo, int size, int views);
 
+// Fidelity to the scan itself, for point scans (whose M is a reconstruction
+// and can be far from them), by the method of ../shared/tools/scan_eval.py:
+// `probes` points spread over m by area (fixed seed); the truth at each is
+// the sum of the normals of the 8 scan points nearest to it; probes over
+// holes (nearest scan point farther than 3 x the median of that distance)
+// are left out (`kept` says how many stay). Compared there: m's interpolated
+// normal, and the APO's filtered lookup (180 degrees where it has no
+// answer). And M against the scan (when M is a mesh): each scan point's
+// distance to M (every n-th point, at most about `probes` of them), as
+// fractions of M's diagonal, and the angle between its normal and M's at
+// the closest point. BadInput when the scan has no normals.
+struct ScanFidelity {
+  std::uint64_t probes = 0, kept = 0;
+  AngularStats coarse, apo;  // "pixels": probes kept
+  AngularStats dense;        // "pixels": scan points
+  double denseMeanDistance = 0.0, denseP95Distance = 0.0;
+};
+Result<ScanFidelity> measureAgainstScan(const PointSet& scan, const Scan& dense, const Scan& coarse,
+                                        const ApoTexture& apo, std::size_t probes = 200000);
+// The manifest's results.render.against_scan (docs/render.md).
+std::string scanFidelityJson(const ScanFidelity& fidelity);
+
 }  // namespace apo

@@ -106,6 +106,24 @@ RenderFigures measureViews(const std::vector<ViewImages>& views) {
   return figures;
 }
 
+std::string scanFidelityJson(const ScanFidelity& f) {
+  const auto statistics = [](const AngularStats& s) {
+    return nlohmann::ordered_json{{"mean", s.mean}, {"median", s.median}, {"p95", s.p95}, {"max", s.max}};
+  };
+  nlohmann::ordered_json json;
+  json["probes"] = f.probes;
+  json["probes_kept"] = f.kept;
+  json["m"] = statistics(f.coarse);
+  json["apo_filtered"] = statistics(f.apo);
+  json["M"] = f.dense.pixels == 0 ? nlohmann::ordered_json(nullptr)
+                                  : nlohmann::ordered_json{{"scan_points", f.dense.pixels},
+                                                           {"normal_degrees", statistics(f.dense)},
+                                                           {"mean_distance", f.denseMeanDistance},
+                                                           {"p95_distance", f.denseP95Distance},
+                                                           {"distance_unit", "bbox_diagonal"}};
+  return json.dump();
+}
+
 std::string renderReportJson(const RenderFigures& figures, const RenderOptions& options, const std::vector<Camera>& cameras) {
   nlohmann::ordered_json json;
   json["format_version"] = 1;

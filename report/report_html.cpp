@@ -579,6 +579,27 @@ std::string psnrText(const Json& view, const char* pass) {
   return fixed(number(psnr), 1);
 }
 
+// A point scan's asset judged against the scan's own points (probes on m,
+// truth from the 8 nearest scan normals), beside the figures against M.
+std::string againstScanTable(const Json* scan) {
+  if (scan == nullptr || !scan->is_object()) return "";
+  std::string html =
+      "<table class=\"metrics\">\n<thead><tr><th>against the scan's own points</th><th class=\"n\">m with APO "
+      "(filtered)</th><th class=\"n\">m alone</th><th class=\"n\">M</th></tr></thead>\n<tbody>\n";
+  for (const auto& [label, key] : {std::pair{"mean", "mean"}, {"median", "median"}, {"95th percentile", "p95"}})
+    html += fmt::format("<tr><td>angular error, {}</td><td class=\"n\">{}</td><td class=\"n\">{}</td><td class=\"n\">{}</td></tr>\n",
+                        label, degrees(numberAt(scan, {"apo_filtered", key})), degrees(numberAt(scan, {"m", key})),
+                        degrees(numberAt(scan, {"M", "normal_degrees", key})));
+  html += fmt::format("<tr><td>probes on m (kept: over scan points)</td><td class=\"n\" colspan=\"2\">{} of {}</td>"
+                      "<td class=\"n\">{} scan points</td></tr>\n",
+                      count(numberAt(scan, {"probes_kept"})), count(numberAt(scan, {"probes"})),
+                      count(numberAt(scan, {"M", "scan_points"})));
+  html += fmt::format("<tr><td>scan points' distance to M, mean / 95th percentile (of the diagonal)</td>"
+                      "<td class=\"n\" colspan=\"3\">{} / {}</td></tr>\n",
+                      fixed(numberAt(scan, {"M", "mean_distance"}), 5), fixed(numberAt(scan, {"M", "p95_distance"}), 5));
+  return html + "</tbody>\n</table>\n";
+}
+
 std::string metricsSection(const Json& manifest) {
   std::string html = "<section id=\"metrics\">\n<h2>Metrics</h2>\n";
   const Json* render = results(manifest, "render");
@@ -608,6 +629,7 @@ std::string metricsSection(const Json& manifest) {
   imageRow("image SSIM", "ssim", 3);
   imageRow("silhouette mismatch", "silhouette_mismatch", 4);
   html += "</tbody>\n</table>\n";
+  html += againstScanTable(child(render, "against_scan"));
 
   if (views != nullptr && views->is_array() && !views->empty()) {
     html += "<table class=\"per-view\">\n<thead><tr><th>view</th><th class=\"n\">APO mean</th><th class=\"n\">baseline mean</th>"

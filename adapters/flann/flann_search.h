@@ -53,5 +53,15 @@ struct NeighbourGraph {
 };
 Result<NeighbourGraph> nearestNeighbourGraph(const std::vector<Vec3f>& points, std::size_t k);
 
+// The k nearest reference points of each query, nearest first (row q, k
+// entries, with their squared distances); k is reduced to the number of
+// reference points. nanoflann on every core, equal distances in index order.
+struct NearestRows {
+  std::size_t k = 0;
+  std::vector<std::uint32_t> indices;    // queries.size() x k
+  std::vector<float> squaredDistances;   // queries.size() x k
+};
+Result<NearestRows> nearestOf(const std::vector<Vec3f>& reference, const std::vector<Vec3f>& queries, std::size_t k);
+
 }  // namespace flann_adapter
 }  // namespace apo

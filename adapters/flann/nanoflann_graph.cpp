@@ -73,4 +73,27 @@ Result<flann_adapter::NeighbourGraph> flann_adapter::nearestNeighbourGraph(const
   });
 }
 
+Result<flann_adapter::NearestRows> flann_adapter::nearestOf(const std::vector<Vec3f>& reference,
+                                                           const std::vector<Vec3f>& queries, std::size_t k) {
+  NearestRows rows;
+  rows.k = std::min(k, reference.size());
+  if (rows.k == 0 || queries.empty()) return rows;
+  if (reference.size() > std::numeric_limits<std::uint32_t>::max())
+    return badInput("{} points: more than a 32-bit neighbour index can hold", reference.size());
+  return catchLibraryErrors("nanoflann k-nearest search", [&]() -> Result<NearestRows> {
+    rows.indices.resize(queries.size() * rows.k);
+    rows.squaredDistances.resize(queries.size() * rows.k);
+    const PointsView view{reference};
+    const Tree tree(3, view, nanoflann::KDTreeSingleIndexAdaptorParams(kLeafSize));
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, queries.size(), kRowsPerTask), [&](const auto& range) {
+      for (std::size_t q = range.begin(); q < range.end(); ++q) {
+        nanoflann::KNNResultSet<float, std::uint32_t> results(rows.k);
+        results.init(&rows.indices[q * rows.k], &rows.squaredDistances[q * rows.k]);
+        tree.findNeighbors(results, queries[q].data(), nanoflann::SearchParams());
+      }
+    });
+    return std::move(rows);
+  });
+}
+
 }  // namespace apo
