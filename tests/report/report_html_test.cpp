@@ -187,6 +187,31 @@ TEST(ReportHtml, ShowsTheDecisionsIngestTookOnItsOwn) {
   EXPECT_THAT(plain, Not(HasSubstr("local frame origin")));
 }
 
+// A point scan's figures against its own points sit beside those against
+// M; a mesh input (against_scan null) shows no such table.
+TEST(ReportHtml, ShowsTheFiguresAgainstTheScanForPointScans) {
+  Json m = succeededManifest("kitten.xyz", 1);
+  m["results"]["render"]["against_scan"] = {
+      {"probes", 200000},
+      {"probes_kept", 180000},
+      {"m", {{"mean", 3.139}, {"median", 2.181}, {"p95", 9.42}}},
+      {"apo_filtered", {{"mean", 2.827}, {"median", 1.777}, {"p95", 9.47}}},
+      {"M",
+       {{"scan_points", 5210},
+        {"normal_degrees", {{"mean", 3.66}, {"median", 2.04}, {"p95", 13.15}}},
+        {"mean_distance", 0.00102},
+        {"p95_distance", 0.00378}}}};
+  const std::string html = qaReportHtml(m);
+  EXPECT_THAT(html, HasSubstr("against the scan's own points"));
+  EXPECT_THAT(html, HasSubstr("<td>angular error, mean</td><td class=\"n\">2.83&deg;</td><td class=\"n\">3.14&deg;</td>"
+                              "<td class=\"n\">3.66&deg;</td>"));
+  EXPECT_THAT(html, HasSubstr("180,000 of 200,000"));
+  EXPECT_THAT(html, HasSubstr("5,210 scan points"));
+  EXPECT_THAT(html, HasSubstr("0.00102 / 0.00378"));
+  m["results"]["render"]["against_scan"] = nullptr;
+  EXPECT_THAT(qaReportHtml(m), Not(HasSubstr("against the scan's own points")));
+}
+
 TEST(ReportHtml, FailedRunShowsTheErrorAndNotRunSections) {
   const std::string html = qaReportHtml(failedAfterIngest("scan.pcd", "no point left after cleaning"));
   EXPECT_THAT(html, HasSubstr("class=\"banner bad\">failed at stage <b>reconstruct</b>: no point left after cleaning"));
