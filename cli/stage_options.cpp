@@ -158,9 +158,10 @@ void addRenderOptions(CLI::App& app, RenderArguments& arguments) {
 
 void addStageOptionGroups(CLI::App& app, StageArguments& arguments) {
   app.add_option("--detail-source", arguments.detailSource,
-                 "M for the bake and the reference renders: mesh (the reconstructed dense mesh, or the input mesh) or "
-                 "points (the scan's points with their normals)")
-      ->check(CLI::IsMember({"mesh", "points"}))
+                 "What the APO is baked from: mesh (the dense mesh M, reconstructed or the input mesh), points (the "
+                 "scan's points with their normals, also the reference renders), or auto (a point scan: both baked, "
+                 "the one closer to the scan's own points kept)")
+      ->check(CLI::IsMember({"auto", "mesh", "points"}))
       ->capture_default_str();
   app.add_flag("--keep-georeference", arguments.keepGeoreference,
                "Write M.ply and m.ply in the scan's own (world) coordinates, in double, instead of its local frame "
@@ -179,7 +180,9 @@ RunOptions runOptionsFrom(StageArguments arguments) {
   arguments.simplify.apply();
   arguments.render.apply();
   RunOptions options;
-  options.detailSource = arguments.detailSource == "points" ? DetailSource::Points : DetailSource::Mesh;
+  options.detailSource = arguments.detailSource == "points" ? DetailSource::Points
+                         : arguments.detailSource == "mesh"  ? DetailSource::Mesh
+                                                             : DetailSource::Auto;
   options.keepGeoreference = arguments.keepGeoreference;
   options.ingest = arguments.ingest.options;
   options.reconstruct = arguments.reconstruct;

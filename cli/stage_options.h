@@ -62,7 +62,7 @@ void addRenderOptions(CLI::App& app, RenderArguments& arguments);
 // --help, --detail-source and --config (TOML).
 struct StageArguments {
   bool keepGeoreference = false;
-  std::string detailSource = "mesh";
+  std::string detailSource = "auto";
   IngestArguments ingest;
   ReconstructOptions reconstruct;
   SimplifyArguments simplify;

@@ -54,7 +54,14 @@ Json renderJson(const RenderOptions& o) {
 
 }  // namespace
 
-std::string detailSourceName(DetailSource source) { return source == DetailSource::Points ? "points" : "mesh"; }
+std::string detailSourceName(DetailSource source) {
+  switch (source) {
+    case DetailSource::Auto: return "auto";
+    case DetailSource::Mesh: return "mesh";
+    case DetailSource::Points: return "points";
+  }
+  return "auto";
+}
 
 Status validateRunOptions(const RunOptions& options) {
   APO_RETURN_IF_ERROR(validateIngestOptions(options.ingest));

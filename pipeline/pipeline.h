@@ -34,10 +34,17 @@ inline constexpr const char* kRenderFolder = "render";
 inline constexpr std::array<const char*, 6> kRunStages = {"ingest", "reconstruct", "simplify", "bake", "render", "report"};
 inline constexpr std::size_t kRunStageCount = kRunStages.size();
 
-// M for the bake and the reference renders: the dense mesh (reconstructed, or
-// the input mesh itself), or the scan's points with their normals.
-enum class DetailSource { Mesh, Points };
-std::string detailSourceName(DetailSource source);  // "mesh", "points"
+// What the APO is baked from. Mesh: the dense mesh M (reconstructed, or the
+// input mesh itself), also the reference of the renders. Points: the scan's
+// points with their normals, also rendered as the reference. Auto: for a
+// point scan, both are baked and the one whose APO is closer to the scan's
+// own points (by more than kPointsDetailMargin) is kept, M staying the
+// reference; a mesh scan is its own M (docs/run.md, "Detail source").
+enum class DetailSource { Auto, Mesh, Points };
+std::string detailSourceName(DetailSource source);  // "auto", "mesh", "points"
+// Baking from the points must win by this fraction of the mean error: the
+// mesh-baked APO also matches the reference renders and is seldom larger.
+inline constexpr double kPointsDetailMargin = 0.05;
 
 // The QA report's renders: 512 px, 3 timed frames, filtered (`apo render`
 // alone defaults to 1024 px, 5 frames, unfiltered).
@@ -51,7 +58,7 @@ inline RenderOptions reportRenderOptions() {
 
 // Every option of every stage of a run, with their defaults.
 struct RunOptions {
-  DetailSource detailSource = DetailSource::Mesh;
+  DetailSource detailSource = DetailSource::Auto;
   // M.ply and m.ply in world coordinates (double) rather than the local frame.
   bool keepGeoreference = false;
   IngestOptions ingest;

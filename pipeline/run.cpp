@@ -13,6 +13,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include <optional>
 #include <string>
 
 namespace apo {
@@ -28,6 +29,8 @@ struct PipelineData {
   Scan dense;   // M as a mesh (the scan itself when it is one)
   Scan coarse;  // m
   ApoTexture texture;
+  const Scan* reference = nullptr;   // M as the renders draw it: dense, or the scan's points
+  std::optional<ScanProbes> probes;  // point scans: the probes on m judging the asset against the scan
 };
 
 class Run {
@@ -46,9 +49,8 @@ class Run {
       APO_RETURN_IF_ERROR(stage(kReconstruct, [&] { return reconstruct(); }));
     }
     APO_RETURN_IF_ERROR(stage(kSimplify, [&] { return simplify(); }));
-    const Scan& detail = detailForBake();
-    APO_RETURN_IF_ERROR(stage(kBake, [&] { return bake(detail); }));
-    APO_RETURN_IF_ERROR(stage(kRender, [&] { return render(detail); }));
+    APO_RETURN_IF_ERROR(stage(kBake, [&] { return bake(); }));
+    APO_RETURN_IF_ERROR(stage(kRender, [&] { return render(); }));
     APO_RETURN_IF_ERROR(stage(kReport, [&] { return report(); }));
     manifest_["status"] = "succeeded";
     return save();
@@ -138,11 +140,8 @@ class Run {
     return okStatus();
   }
 
-  // M for the bake and the reference renders: the dense mesh, or with
-  // --detail-source points the scan's points (a mesh's vertices with their
-  // normals).
-  const Scan& detailForBake() {
-    if (settings_.options.detailSource != DetailSource::Points) return data_.dense;
+  // The scan's points as detail: a mesh's vertices with their normals.
+  const Scan& pointsOfScan() {
     if (data_.scan.isMesh()) {
       if (!data_.scan.points.hasNormals()) data_.scan.points.normals = areaWeightedVertexNormals(data_.scan);
       data_.scan.triangles.clear();
@@ -150,21 +149,84 @@ class Run {
     return data_.scan;
   }
 
-  Status bake(const Scan& detail) {
-    auto baked = bakeApo(detail, data_.coarse, settings_.options.bake, reportFraction());
+  // A point scan is judged against its own points (docs/render.md, "Against
+  // the scan"); the probes on m and their truths are made once.
+  bool judgedAgainstScan() const { return !data_.scan.isMesh() && data_.scan.points.hasNormals(); }
+  Result<const ScanProbes*> scanProbes() {
+    if (!data_.probes) {
+      auto probes = probeAgainstScan(data_.scan.points, data_.coarse);
+      if (!probes) return aboutInput(settings_.input, probes.error());
+      data_.probes = std::move(*probes);
+    }
+    return &*data_.probes;
+  }
+
+  Result<Bake> bakeFrom(const Scan& detail, double from, double to) {
+    auto baked = bakeApo(detail, data_.coarse, settings_.options.bake,
+                         [&](double fraction) { progress_.setFraction(from + (to - from) * fraction); });
     if (!baked) return aboutInput(settings_.input, baked.error());
+    return baked;
+  }
+
+  // --detail-source auto on a point scan: the APO baked from M and the one
+  // baked from the points, each judged against the scan on the same probes;
+  // the points must win by kPointsDetailMargin.
+  Result<Bake> bakeCloserToScan(Json& choice) {
+    auto fromMesh = bakeFrom(data_.dense, 0.0, 0.4);
+    if (!fromMesh) return fromMesh.error();
+    auto fromPoints = bakeFrom(data_.scan, 0.4, 0.8);
+    if (!fromPoints) return fromPoints.error();
+    auto probes = scanProbes();
+    if (!probes) return probes.error();
+    const AngularStats meshError = apoErrorAgainstScan(**probes, fromMesh->texture);
+    const AngularStats pointsError = apoErrorAgainstScan(**probes, fromPoints->texture);
+    const bool points = pointsError.mean < (1.0 - kPointsDetailMargin) * meshError.mean;
+    choice["chosen"] = points ? "points" : "mesh";
+    choice["reason"] = fmt::format("the APO baked from the {} is closer to the scan's own points", points ? "points" : "mesh");
+    const auto candidate = [](const Bake& baked, const AngularStats& error) {
+      return Json{{"against_scan_mean_degrees", error.mean}, {"texture_bytes", baked.report.textureBytes}};
+    };
+    choice["candidates"] = {{"mesh", candidate(*fromMesh, meshError)}, {"points", candidate(*fromPoints, pointsError)}};
+    choice["probes_kept"] = (*probes)->positions.size();
+    choice["margin"] = kPointsDetailMargin;
+    return points ? std::move(fromPoints) : std::move(fromMesh);
+  }
+
+  // Bakes from what --detail-source says (deciding it for auto); records
+  // the choice in results.bake.detail_source.
+  Result<Bake> bakeChosen(Json& choice) {
+    const DetailSource option = settings_.options.detailSource;
+    choice = {{"option", detailSourceName(option)}};
+    if (option == DetailSource::Points) {
+      choice["chosen"] = "points";
+      choice["reason"] = "--detail-source points";
+      data_.reference = &pointsOfScan();
+      return bakeFrom(*data_.reference, 0.0, 1.0);
+    }
+    data_.reference = &data_.dense;
+    if (option == DetailSource::Auto && judgedAgainstScan()) return bakeCloserToScan(choice);
+    choice["chosen"] = "mesh";
+    choice["reason"] = option == DetailSource::Mesh ? "--detail-source mesh" : "the scan is a mesh: M is the scan";
+    return bakeFrom(data_.dense, 0.0, 1.0);
+  }
+
+  Status bake() {
+    Json choice;
+    auto baked = bakeChosen(choice);
+    if (!baked) return baked.error();
     data_.texture = std::move(baked->texture);
     APO_RETURN_IF_ERROR(writeApoFile(settings_.outDir / "scan.apo", data_.texture));
     APO_RETURN_IF_ERROR(writeApoPng(settings_.outDir / "texture.png", data_.texture));
     addFile("apo", "scan.apo");
     addFile("texture", "texture.png");
     manifest_["results"]["bake"] = Json::parse(bakeReportJson(baked->report));
+    manifest_["results"]["bake"]["detail_source"] = std::move(choice);
     return okStatus();
   }
 
-  Status render(const Scan& detail) {
+  Status render() {
     progress_.setFraction(0.0);
-    auto views = renderViews(&detail, data_.coarse, data_.texture, settings_.options.render,
+    auto views = renderViews(data_.reference, data_.coarse, data_.texture, settings_.options.render,
                              [&](int done, int total) { progress_.setFraction(static_cast<double>(done) / total); });
     if (!views) return aboutInput(settings_.input, views.error());
     const RenderFigures figures = measureViews(*views);
@@ -175,8 +237,10 @@ class Run {
     // A point scan's M is a reconstruction: the asset is judged against the
     // scan's own points too (docs/render.md, "Against the scan").
     manifest_["results"]["render"]["against_scan"] = nullptr;
-    if (!data_.scan.isMesh() && data_.scan.points.hasNormals()) {
-      auto fidelity = measureAgainstScan(data_.scan.points, data_.dense, data_.coarse, data_.texture);
+    if (judgedAgainstScan()) {
+      auto probes = scanProbes();
+      if (!probes) return probes.error();
+      auto fidelity = measureAgainstScan(**probes, data_.scan.points, data_.dense, data_.texture);
       if (!fidelity) return aboutInput(settings_.input, fidelity.error());
       manifest_["results"]["render"]["against_scan"] = Json::parse(scanFidelityJson(*fidelity));
     }

@@ -211,24 +211,33 @@ struct WalkAgreement {
 Result<WalkAgreement> compareWalkWithCpu(const Scan& coarse, const ApoTexture& apo, int size, int views);
 
 // Fidelity to the scan itself, for point scans (whose M is a reconstruction
-// and can be far from them), by the method of ../shared/tools/scan_eval.py:
-// `probes` points spread over m by area (fixed seed); the truth at each is
-// the sum of the normals of the 8 scan points nearest to it; probes over
-// holes (nearest scan point farther than 3 x the median of that distance)
-// are left out (`kept` says how many stay). Compared there: m's interpolated
-// normal, and the APO's filtered lookup (180 degrees where it has no
-// answer). And M against the scan (when M is a mesh): each scan point's
-// distance to M (every n-th point, at most about `probes` of them), as
-// fractions of M's diagonal, and the angle between its normal and M's at
-// the closest point. BadInput when the scan has no normals.
+// and can be far from them), by the method of ../shared/tools/scan_eval.py.
+// The probes: `count` points spread over m by area (fixed seed); the truth at
+// each is the sum of the normals of the 8 scan points nearest to it; probes
+// over holes (nearest scan point farther than 3 x the median of that
+// distance) are left out, `drawn` says how many there were. Made once, they
+// judge any number of APOs of that m. BadInput when the scan has no normals.
+struct ScanProbes {
+  std::uint64_t drawn = 0;
+  std::vector<Vec3f> positions, coarseNormals, truths;  // the kept probes: m's interpolated normal there
+};
+Result<ScanProbes> probeAgainstScan(const PointSet& scan, const Scan& coarse, std::size_t count = 200000);
+// The APO's filtered lookup against the truth at every kept probe (180
+// degrees where it has no answer).
+AngularStats apoErrorAgainstScan(const ScanProbes& probes, const ApoTexture& apo);
+
+// Everything against the scan: m's interpolated normal and the APO at the
+// probes; and M (when it is a mesh): each scan point's distance to M (every
+// n-th point, at most about `drawn` of them), as fractions of M's diagonal,
+// and the angle between its normal and M's at the closest point.
 struct ScanFidelity {
   std::uint64_t probes = 0, kept = 0;
   AngularStats coarse, apo;  // "pixels": probes kept
   AngularStats dense;        // "pixels": scan points
   double denseMeanDistance = 0.0, denseP95Distance = 0.0;
 };
-Result<ScanFidelity> measureAgainstScan(const PointSet& scan, const Scan& dense, const Scan& coarse,
-                                        const ApoTexture& apo, std::size_t probes = 200000);
+Result<ScanFidelity> measureAgainstScan(const ScanProbes& probes, const PointSet& scan, const Scan& dense,
+                                        const ApoTexture& apo);
 // The manifest's results.render.against_scan (docs/render.md).
 std::string scanFidelityJson(const ScanFidelity& fidelity);
 

@@ -95,13 +95,12 @@ Status measureDense(const PointSet& all, const Scan& dense, std::size_t count, S
 
 }  // namespace
 
-Result<ScanFidelity> measureAgainstScan(const PointSet& scan, const Scan& dense, const Scan& coarse,
-                                        const ApoTexture& apo, std::size_t probeCount) {
+Result<ScanProbes> probeAgainstScan(const PointSet& scan, const Scan& coarse, std::size_t count) {
   if (!scan.hasNormals() || scan.size() == 0) return badInput("against the scan: the scan has no normals");
-  ScanFidelity fidelity;
-  const std::vector<Probe> probes = probesOn(coarse, probeCount);
-  fidelity.probes = probes.size();
-  if (probes.empty()) return fidelity;
+  const std::vector<Probe> probes = probesOn(coarse, count);
+  ScanProbes kept;
+  kept.drawn = probes.size();
+  if (probes.empty()) return kept;
   std::vector<Vec3f> positions;
   positions.reserve(probes.size());
   for (const Probe& probe : probes) positions.push_back(probe.position);
@@ -111,26 +110,41 @@ Result<ScanFidelity> measureAgainstScan(const PointSet& scan, const Scan& dense,
   std::vector<float> nearestDistance(probes.size());
   for (std::size_t q = 0; q < probes.size(); ++q) nearestDistance[q] = std::sqrt(nearest->squaredDistances[q * k]);
   const float hole = static_cast<float>(kHoleFactor) * median(nearestDistance);
+  for (std::size_t q = 0; q < probes.size(); ++q) {
+    if (nearestDistance[q] > hole) continue;
+    Vec3f truth = Vec3f::Zero();
+    for (std::size_t j = 0; j < k; ++j) truth += scan.normals[nearest->indices[q * k + j]];
+    kept.positions.push_back(probes[q].position);
+    kept.coarseNormals.push_back(probes[q].normal);
+    kept.truths.push_back(truth);
+  }
+  return kept;
+}
 
-  std::vector<float> coarseDegrees(probes.size()), apoDegrees(probes.size());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, probes.size(), 4096), [&](const auto& range) {
+AngularStats apoErrorAgainstScan(const ScanProbes& probes, const ApoTexture& apo) {
+  std::vector<float> degrees(probes.positions.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, degrees.size(), 4096), [&](const auto& range) {
     for (std::size_t q = range.begin(); q < range.end(); ++q) {
-      if (nearestDistance[q] > hole) {
-        coarseDegrees[q] = apoDegrees[q] = std::numeric_limits<float>::quiet_NaN();
-        continue;
-      }
-      Vec3f truth = Vec3f::Zero();
-      for (std::size_t j = 0; j < k; ++j) truth += scan.normals[nearest->indices[q * k + j]];
-      coarseDegrees[q] = static_cast<float>(angleDegrees(probes[q].normal, truth));
-      const Lookup looked = lookupTextureFiltered(apo, apo.transform.toUnit(probes[q].position));
+      const Lookup looked = lookupTextureFiltered(apo, apo.transform.toUnit(probes.positions[q]));
       // No answer: the APO shows nothing there, as far from right as can be.
-      apoDegrees[q] = looked.found ? static_cast<float>(angleDegrees(looked.normal, truth)) : 180.0f;
+      degrees[q] = looked.found ? static_cast<float>(angleDegrees(looked.normal, probes.truths[q])) : 180.0f;
     }
   });
+  return statsOfAngles(std::move(degrees));
+}
+
+Result<ScanFidelity> measureAgainstScan(const ScanProbes& probes, const PointSet& scan, const Scan& dense,
+                                        const ApoTexture& apo) {
+  ScanFidelity fidelity;
+  fidelity.probes = probes.drawn;
+  fidelity.kept = probes.positions.size();
+  if (fidelity.kept == 0) return fidelity;
+  std::vector<float> coarseDegrees(fidelity.kept);
+  for (std::size_t q = 0; q < coarseDegrees.size(); ++q)
+    coarseDegrees[q] = static_cast<float>(angleDegrees(probes.coarseNormals[q], probes.truths[q]));
   fidelity.coarse = statsOfAngles(std::move(coarseDegrees));
-  fidelity.apo = statsOfAngles(std::move(apoDegrees));
-  fidelity.kept = fidelity.coarse.pixels;
-  if (dense.isMesh()) APO_RETURN_IF_ERROR(measureDense(scan, dense, probeCount, fidelity));
+  fidelity.apo = apoErrorAgainstScan(probes, apo);
+  if (dense.isMesh()) APO_RETURN_IF_ERROR(measureDense(scan, dense, probes.drawn, fidelity));
   return fidelity;
 }
 

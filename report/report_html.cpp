@@ -600,6 +600,16 @@ std::string againstScanTable(const Json* scan) {
   return html + "</tbody>\n</table>\n";
 }
 
+// Auto baked the APO from the points but the renders' reference is M: the
+// figures above measure M's distance from the scan as much as the APO's.
+std::string bakedFromPointsNote(const Json& manifest) {
+  const Json* choice = at(results(manifest, "bake"), {"detail_source"});
+  if (textAt(choice, {"option"}) != "auto" || textAt(choice, {"chosen"}) != "points") return "";
+  return "<p class=\"meta\">The APO was baked from the scan's points, which it follows closer than M does (Bake "
+         "section); these figures compare it with M, so they include M's own distance from the scan. The figures "
+         "against the scan judge it.</p>\n";
+}
+
 std::string metricsSection(const Json& manifest) {
   std::string html = "<section id=\"metrics\">\n<h2>Metrics</h2>\n";
   const Json* render = results(manifest, "render");
@@ -629,6 +639,7 @@ std::string metricsSection(const Json& manifest) {
   imageRow("image SSIM", "ssim", 3);
   imageRow("silhouette mismatch", "silhouette_mismatch", 4);
   html += "</tbody>\n</table>\n";
+  html += bakedFromPointsNote(manifest);
   html += againstScanTable(child(render, "against_scan"));
 
   if (views != nullptr && views->is_array() && !views->empty()) {
@@ -759,6 +770,21 @@ std::string meshesSection(const Json& manifest) {
   return html + "</div>\n</div>\n</section>\n";
 }
 
+// Why the APO was baked from what it was baked from (--detail-source), with
+// the two candidates' errors against the scan when auto compared them.
+std::string detailChoiceRow(const Json* choice) {
+  if (choice == nullptr || !choice->is_object()) return {};
+  std::string text = escaped(textAt(choice, {"chosen"})) + " (" + escaped(textAt(choice, {"option"})) + ": " +
+                     escaped(textAt(choice, {"reason"}));
+  if (const Json* candidates = child(choice, "candidates"); candidates != nullptr && candidates->is_object())
+    text += fmt::format("; against the scan, baked from M {} in {}, from the points {} in {}",
+                        degrees(numberAt(candidates, {"mesh", "against_scan_mean_degrees"})),
+                        bytesText(numberAt(candidates, {"mesh", "texture_bytes"})),
+                        degrees(numberAt(candidates, {"points", "against_scan_mean_degrees"})),
+                        bytesText(numberAt(candidates, {"points", "texture_bytes"})));
+  return row("baked from", text + ")");
+}
+
 std::string bakeSection(const Json& manifest) {
   std::string html = "<section id=\"bake\">\n<h2>Bake</h2>\n";
   const Json* bake = results(manifest, "bake");
@@ -769,6 +795,7 @@ std::string bakeSection(const Json& manifest) {
   const Json* perDepth = at(bake, {"nodes", "per_depth"});
   html += "<div class=\"grid2\">\n<table>\n";
   html += row("detail M", escaped(textAt(bake, {"detail", "kind"})) + ", " + count(numberAt(bake, {"detail", "primitives"})) + " primitives");
+  html += detailChoiceRow(child(bake, "detail_source"));
   html += row("rays cast", count(rays));
   html += row("samples hit by a ray", count(hit));
   std::string fallbackText = count(fallback);

@@ -1,6 +1,7 @@
 // `apo run` and `apo batch` through the binary: OUTDIR's files and manifest,
 // the config file, bad scans, and a batch that is killed and resumed.
 #include "core/file_io.h"
+#include "format/format.h"
 #include "ingest/ingest.h"
 #include "tests/bake/bumpy_sphere.h"
 #include "tests/test_support.h"
@@ -94,6 +95,68 @@ TEST(RunCommand, PointsAreReconstructedAndCanBeMThemselves) {
   EXPECT_EQ(manifest["results"]["bake"]["detail"]["kind"], "points");
   // --json: the same manifest on stdout.
   EXPECT_THAT(result.output, HasSubstr(fmt::format("\"sha256\": \"{}\"", manifest["input"]["sha256"].get<std::string>())));
+}
+
+// Mean angle between the filtered lookup of OUTDIR/scan.apo and the bumpy
+// sphere's analytic normals, at the centroids of m's faces.
+double apoErrorAgainstShape(const fs::path& outDir, const test::BumpySphere& shape) {
+  const auto apo = readApoFile(outDir / "scan.apo");
+  const auto coarse = readScan(outDir / "m.ply");
+  EXPECT_TRUE(apo.ok() && coarse.ok());
+  if (!apo.ok() || !coarse.ok()) return 180.0;
+  double sum = 0.0;
+  const auto& p = coarse->points.positions;
+  for (const Triangle& t : coarse->triangles) {
+    const Vec3f at = (p[t[0]] + p[t[1]] + p[t[2]]) / 3.0f;
+    const Lookup looked = lookupTextureFiltered(*apo, apo->transform.toUnit(at));
+    sum += looked.found ? test::degreesBetween(looked.normal, shape.normal(at)) : 180.0;
+  }
+  return sum / static_cast<double>(coarse->triangles.size());
+}
+
+// A dense point scan of fine bumps with exact normals, reconstructed from
+// only 1,000 of its points: M smooths the bumps away, the points keep them.
+// The default (auto) bakes both, keeps the APO closer to the scan, and says
+// so; by the analytic normals, an independent truth, it is the closer one.
+// A mesh scan is its own M: nothing to choose.
+TEST(RunCommand, TheDefaultDetailSourceKeepsTheScansDetailWhenMLosesIt) {
+  const fs::path dir = test::freshTempDir();
+  const test::BumpySphere shape = test::BumpySphere::allOver();
+  Scan scan;
+  for (const Vec3f& d : test::fibonacciSpherePoints(60000)) {
+    scan.points.positions.push_back(shape.surfacePoint(d));
+    scan.points.normals.push_back(shape.normal(d));
+  }
+  ASSERT_TRUE(writePly(dir / "points.ply", scan).ok());
+  const std::string options = fmt::format("{} --max-points 1000", kQuick);
+  for (const char* source : {"auto", "mesh"}) {
+    const auto result = apo(fmt::format("run '{}' -o '{}' {} --detail-source {}", (dir / "points.ply").string(),
+                                        (dir / source).string(), options, source));
+    ASSERT_EQ(result.exitCode, 0) << result.output;
+  }
+  const nlohmann::json manifest = readJson(dir / "auto" / "manifest.json");
+  EXPECT_EQ(manifest["options"]["detail-source"], "auto");
+  const nlohmann::json& choice = manifest["results"]["bake"]["detail_source"];
+  EXPECT_EQ(choice["chosen"], "points") << choice.dump();
+  EXPECT_EQ(manifest["results"]["bake"]["detail"]["kind"], "points");
+  const double fromPoints = choice["candidates"]["points"]["against_scan_mean_degrees"];
+  const double fromMesh = choice["candidates"]["mesh"]["against_scan_mean_degrees"];
+  EXPECT_LT(fromPoints, 0.95 * fromMesh);
+  // The kept APO is the one the render stage judged against the scan.
+  EXPECT_EQ(manifest["results"]["render"]["against_scan"]["apo_filtered"]["mean"], fromPoints);
+  const nlohmann::json meshManifest = readJson(dir / "mesh" / "manifest.json");
+  EXPECT_EQ(meshManifest["results"]["bake"]["detail_source"]["chosen"], "mesh");
+  EXPECT_EQ(meshManifest["results"]["render"]["against_scan"]["apo_filtered"]["mean"], fromMesh);
+  EXPECT_EQ(fileBytes(dir / "auto" / "m.ply"), fileBytes(dir / "mesh" / "m.ply"));
+  EXPECT_LT(apoErrorAgainstShape(dir / "auto", shape), 0.8 * apoErrorAgainstShape(dir / "mesh", shape));
+  EXPECT_THAT(fileBytes(dir / "auto" / "report.html"), HasSubstr("the APO baked from the points is closer"));
+
+  const fs::path mesh = writeMeshScan(dir / "sphere.ply");
+  ASSERT_EQ(apo(fmt::format("run '{}' -o '{}' {}", mesh.string(), (dir / "sphere").string(), kQuick)).exitCode, 0);
+  const nlohmann::json sphere = readJson(dir / "sphere" / "manifest.json");
+  EXPECT_EQ(sphere["results"]["bake"]["detail_source"]["chosen"], "mesh");
+  EXPECT_FALSE(sphere["results"]["bake"]["detail_source"].contains("candidates"));
+  EXPECT_EQ(sphere["results"]["render"]["against_scan"], nullptr);
 }
 
 std::string afterHeader(const std::string& ply) { return ply.substr(ply.find("end_header\n")); }

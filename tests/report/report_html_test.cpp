@@ -212,6 +212,25 @@ TEST(ReportHtml, ShowsTheFiguresAgainstTheScanForPointScans) {
   EXPECT_THAT(qaReportHtml(m), Not(HasSubstr("against the scan's own points")));
 }
 
+TEST(ReportHtml, SaysWhatTheApoWasBakedFromAndWhy) {
+  Json m = succeededManifest("kitten.xyz", 1);
+  m["results"]["bake"]["detail_source"] = {
+      {"option", "auto"},
+      {"chosen", "points"},
+      {"reason", "the APO baked from the <points> is closer"},
+      {"candidates",
+       {{"mesh", {{"against_scan_mean_degrees", 4.521}, {"texture_bytes", 278528}}},
+        {"points", {{"against_scan_mean_degrees", 3.104}, {"texture_bytes", 2097152}}}}}};
+  const std::string html = qaReportHtml(m);
+  EXPECT_THAT(html, HasSubstr("<td>baked from</td><td class=\"n\">points (auto: the APO baked from the &lt;points&gt; is "
+                              "closer; against the scan, baked from M 4.52&deg; in 272.0 KiB, from the points 3.10&deg; "
+                              "in 2.0 MiB)</td>"));
+  EXPECT_THAT(html, HasSubstr("these figures compare it with M"));
+  m["results"]["bake"]["detail_source"] = {{"option", "auto"}, {"chosen", "mesh"}, {"reason", "the scan is a mesh"}};
+  EXPECT_THAT(qaReportHtml(m), Not(HasSubstr("these figures compare it with M")));
+  EXPECT_THAT(qaReportHtml(m), HasSubstr("<td>baked from</td><td class=\"n\">mesh (auto: the scan is a mesh)</td>"));
+}
+
 TEST(ReportHtml, FailedRunShowsTheErrorAndNotRunSections) {
   const std::string html = qaReportHtml(failedAfterIngest("scan.pcd", "no point left after cleaning"));
   EXPECT_THAT(html, HasSubstr("class=\"banner bad\">failed at stage <b>reconstruct</b>: no point left after cleaning"));
