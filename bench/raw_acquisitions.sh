@@ -94,21 +94,7 @@ src=datasets/cgal/meshes/bunny00.off
 awk 'NR <= 2 { print; next } NF == 4 && $1 == 3 { print $1, $2, $4, $3; next } { print }' "$src" >"$out/bunny00_inward.off"
 # A multi-view soup of range grids, and the same soup wound inward.
 $apo -q simulate-scan "$src" -o "$out/bunny00_soup.ply" --mesh --views 10 --rays 300 >>"$out/log.txt"
-python3 - "$out/bunny00_soup.ply" "$out/bunny00_soup_inward.ply" <<'PY'
-import struct, sys
-data = open(sys.argv[1], 'rb').read()
-end = data.index(b'end_header\n') + len(b'end_header\n')
-lines = data[:end].decode().split('\n')
-count = lambda name: int(next(l for l in lines if l.startswith('element ' + name)).split()[2])
-vertex_bytes = 4 * sum(1 for l in lines if l.startswith('property float'))
-body = bytearray(data[end:])
-at = count('vertex') * vertex_bytes
-for _ in range(count('face')):
-    a, b, c = struct.unpack_from('<iii', body, at + 1)
-    struct.pack_into('<iii', body, at + 1, a, c, b)
-    at += 13
-open(sys.argv[2], 'wb').write(data[:end] + bytes(body))
-PY
+python3 bench/flip_winding.py "$out/bunny00_soup.ply" "$out/bunny00_soup_inward.ply"
 for input in "$src" "$out/bunny00_inward.off" "$out/bunny00_soup.ply" "$out/bunny00_soup_inward.ply"; do
   name=$(basename "${input%.*}")
   read -r s mem < <(measure $apo -q run "$input" -o "$out/run-$name")

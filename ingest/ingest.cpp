@@ -119,21 +119,23 @@ void triangulateOrganizedGrid(Scan& scan, const IngestOptions& options, IngestRe
     if (scan.points.positions[i].allFinite()) index[i] = i;
     else ++grid.missing;
   }
-  grid.angularStep = range_grid::medianAngularStep(scan.points.positions, grid.width, grid.sensor);
+  const range_grid::GridSpacing spacing = range_grid::measureSpacing(scan.points.positions, grid.width, grid.sensor);
+  grid.angularStep = spacing.angularStep;
+  grid.maxEdgeInSpacings = spacing.maxEdgeInSpacings;
   if (grid.angularStep <= 0.0) {
     spdlog::warn("ingest: organised {} x {} cloud with no two neighbouring returns: read as points", grid.width, grid.height);
     return;
   }
   const range_grid::GridTriangles made =
-      range_grid::triangulate(index, grid.width, grid.height, grid.sensor, static_cast<float>(grid.angularStep), scan);
+      range_grid::triangulate(index, grid.width, grid.height, grid.sensor, spacing.angularStep, spacing.maxEdgeInSpacings, scan);
   grid.made = made.triangles > 0;
   grid.candidates = made.candidates;
   grid.triangles = made.triangles;
   grid.refused = made.refused;
   spdlog::info("ingest: organised {} x {} cloud ({} pixels without a return) triangulated on its grid from the {} "
-               "at ({}, {}, {}): {} triangles, {} refused across depth jumps or grazing",
+               "at ({}, {}, {}): {} triangles, {} refused across depth jumps (edges over {:.1f} ray spacings) or grazing",
                grid.width, grid.height, grid.missing, grid.sensorSource, grid.sensor.x(), grid.sensor.y(),
-               grid.sensor.z(), made.triangles, made.refused);
+               grid.sensor.z(), made.triangles, made.refused, grid.maxEdgeInSpacings);
 }
 
 // One surface, or overlapping range scans whose points become the scan
@@ -383,6 +385,7 @@ std::string ingestReportJson(const IngestReport& report) {
                                                        {"triangles", g.triangles},
                                                        {"refused_triangles", g.refused},
                                                        {"angular_step", g.angularStep},
+                                                       {"max_edge_in_spacings", g.maxEdgeInSpacings},
                                                        {"sensor", vectorJson(g.sensor)},
                                                        {"sensor_from", g.sensorSource}};
   json["read_notes"] = report.readNotes;

@@ -124,6 +124,7 @@ struct IngestReport {
     std::uint64_t missing = 0;                  // pixels without a return (NaN)
     std::uint64_t candidates = 0, triangles = 0, refused = 0;  // range_grid::GridTriangles
     double angularStep = 0.0;                   // radians between neighbouring pixels, from the data
+    double maxEdgeInSpacings = 0.0;             // the depth-jump test, from the data (range_grid::GridSpacing)
     Vec3f sensor = Vec3f::Zero();
     std::string sensorSource;                   // "--sensor", "viewpoint" (the file's) or "origin"
   } gridMesh;

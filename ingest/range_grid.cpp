@@ -6,7 +6,7 @@
 namespace apo::range_grid {
 
 GridTriangles triangulate(const std::vector<std::uint32_t>& index, std::size_t width, std::size_t height,
-                          const Vec3f& sensor, float angularStep, Scan& mesh) {
+                          const Vec3f& sensor, float angularStep, float maxEdgeInSpacings, Scan& mesh) {
   GridTriangles counts;
   const auto& p = mesh.points.positions;
   auto acceptable = [&](std::uint32_t a, std::uint32_t b, std::uint32_t c) {
@@ -15,7 +15,7 @@ GridTriangles triangulate(const std::vector<std::uint32_t>& index, std::size_t w
     const float longest = std::max({(p[a] - p[b]).norm(), (p[b] - p[c]).norm(), (p[c] - p[a]).norm()});
     const Vec3f normal = (p[b] - p[a]).cross(p[c] - p[a]);
     const float facing = normal.norm() > 0.0f ? normal.normalized().dot((sensor - centroid).normalized()) : 0.0f;
-    return longest <= kMaxEdgeInSpacings * spacing && std::abs(facing) >= kMinFacingCosine;
+    return longest <= maxEdgeInSpacings * spacing && std::abs(facing) >= kMinFacingCosine;
   };
   auto add = [&](std::uint32_t a, std::uint32_t b, std::uint32_t c) {
     if (a == kNoReturn || b == kNoReturn || c == kNoReturn) return;
@@ -33,13 +33,21 @@ GridTriangles triangulate(const std::vector<std::uint32_t>& index, std::size_t w
     for (std::size_t column = 0; column + 1 < width; ++column) {
       const std::uint32_t a = index[row * width + column], b = index[row * width + column + 1],
                           c = index[(row + 1) * width + column], d = index[(row + 1) * width + column + 1];
-      add(a, b, d);
-      add(a, d, c);
+      // A cell with a corner missing still gets the triangle of the other
+      // three (depth cameras lose single pixels all over): split along the
+      // diagonal that avoids the missing corner.
+      if (a == kNoReturn || d == kNoReturn) {
+        add(a, b, c);
+        add(b, d, c);
+      } else {
+        add(a, b, d);
+        add(a, d, c);
+      }
     }
   return counts;
 }
 
-float medianAngularStep(const std::vector<Vec3f>& positions, std::size_t width, const Vec3f& sensor) {
+GridSpacing measureSpacing(const std::vector<Vec3f>& positions, std::size_t width, const Vec3f& sensor) {
   std::vector<float> steps;
   auto measure = [&](std::size_t i, std::size_t j) {
     const Vec3f &a = positions[i], &b = positions[j];
@@ -51,10 +59,18 @@ float medianAngularStep(const std::vector<Vec3f>& positions, std::size_t width, 
     if ((i + 1) % width != 0) measure(i, i + 1);
     if (i + width < positions.size()) measure(i, i + width);
   }
-  if (steps.empty()) return 0.0f;
-  const auto middle = steps.begin() + static_cast<std::ptrdiff_t>(steps.size() / 2);
-  std::nth_element(steps.begin(), middle, steps.end());
-  return *middle;
+  GridSpacing spacing;
+  if (steps.empty()) return spacing;
+  const auto quantile = [&](double q) {
+    const auto at = steps.begin() + static_cast<std::ptrdiff_t>(q * static_cast<double>(steps.size() - 1));
+    std::nth_element(steps.begin(), at, steps.end());
+    return *at;
+  };
+  spacing.angularStep = quantile(0.5);
+  if (spacing.angularStep > 0.0f)
+    spacing.maxEdgeInSpacings = std::clamp(kJumpOverSpread * quantile(0.95) / spacing.angularStep, kMaxEdgeInSpacings,
+                                           kMaxEdgeInSpacingsCap);
+  return spacing;
 }
 
 }  // namespace apo::range_grid

@@ -94,7 +94,8 @@ Result<SimulatedScan> simulateScan(const Scan& mesh, const RayCaster& caster, co
       const float angularStep = 2.0f * radius / std::sqrt(std::max(1e-12f, (centre - origin).squaredNorm() - radius * radius)) /
                                 static_cast<float>(options.raysPerSide);
       range_grid::triangulate(gridIndex, static_cast<std::size_t>(options.raysPerSide),
-                              static_cast<std::size_t>(options.raysPerSide), motion * origin, angularStep, result.scan);
+                              static_cast<std::size_t>(options.raysPerSide), motion * origin, angularStep,
+                              range_grid::kMaxEdgeInSpacings, result.scan);
     }
     result.viewOrigins.push_back(origin);
     result.pointsPerView.push_back(kept);

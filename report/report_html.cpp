@@ -705,7 +705,8 @@ std::string ingestDecisionRows(const Json* ingest) {
                     count(numberAt(grid, {"pixels_without_return"})) + " without a return; " +
                     count(numberAt(grid, {"triangles"})) + " triangles facing the sensor (" +
                     escaped(textAt(grid, {"sensor_from"})) + "), " + count(numberAt(grid, {"refused_triangles"})) +
-                    " refused across depth jumps or grazing");
+                    " refused across depth jumps (edges over " + fixed(numberAt(grid, {"max_edge_in_spacings"}), 1) +
+                    " ray spacings) or grazing");
   if (const Json* faces = at(ingest, {"face_orientation"}); faces != nullptr && faces->is_object() &&
                                                              numberAt(faces, {"flipped_triangles"}).value_or(0) > 0)
     html += row("faces wound inward, flipped", count(numberAt(faces, {"flipped_triangles"})) + " triangles in " +

@@ -7,8 +7,12 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
+#include <array>
+#include <random>
 #include <string>
 #include <string_view>
+#include <vector>
 
 
 namespace apo {
@@ -56,6 +60,9 @@ TEST(IngestScan, PointCloudIsCleanedAndGetsOutwardNormals) {
 struct DepthFrame {
   std::string pcd;
   std::size_t missing = 0;
+  // Lone pixels without a return on the wall (stereo matching fails on
+  // single pixels): each one's four neighbours, up, right, down, left.
+  std::vector<std::array<Vec3f, 4>> loneHoles;
 };
 DepthFrame ballBeforeAWall(int width, int height) {
   DepthFrame frame;
@@ -63,22 +70,52 @@ DepthFrame ballBeforeAWall(int width, int height) {
                           "VIEWPOINT 0 0 0 1 0 0 0\nPOINTS {}\nDATA ascii\n",
                           width, height, width * height);
   const Eigen::Vector3d centre(0.0, 0.0, 3.0);
+  std::vector<Eigen::Vector3d> hits(static_cast<std::size_t>(width * height));
+  std::vector<char> onWall(hits.size(), 0);
   for (int row = 0; row < height; ++row)
     for (int column = 0; column < width; ++column) {
       const Eigen::Vector3d ray =
           Eigen::Vector3d((column - width / 2.0) / width, (row - height / 2.0) / width, 1.0).normalized();
       const double along = ray.dot(centre), gap = along * along - (centre.squaredNorm() - 0.25);
-      Eigen::Vector3d hit;
+      Eigen::Vector3d& hit = hits[static_cast<std::size_t>(row * width + column)];
       if (gap >= 0.0) hit = (along - std::sqrt(gap)) * ray;
       else hit = (5.0 / ray.z()) * ray;
-      if (gap < 0.0 && std::abs(hit.x()) > 1.5) {
-        frame.pcd += "nan nan nan\n";
-        ++frame.missing;
-      } else {
-        frame.pcd += fmt::format("{} {} {}\n", hit.x(), hit.y(), hit.z());
-      }
+      if (gap < 0.0 && std::abs(hit.x()) > 1.5) hit.setConstant(std::nan(""));
+      onWall[static_cast<std::size_t>(row * width + column)] = gap < 0.0 && hit.allFinite();
     }
+  const auto at = [&](int row, int column) { return static_cast<std::size_t>(row * width + column); };
+  for (int row = 4; row + 1 < height; row += 9)
+    for (int column = 5; column + 1 < width; column += 11)
+      if (onWall[at(row, column)] && onWall[at(row - 1, column)] && onWall[at(row, column + 1)] &&
+          onWall[at(row + 1, column)] && onWall[at(row, column - 1)]) {
+        frame.loneHoles.push_back({hits[at(row - 1, column)].cast<float>(), hits[at(row, column + 1)].cast<float>(),
+                                   hits[at(row + 1, column)].cast<float>(), hits[at(row, column - 1)].cast<float>()});
+        hits[at(row, column)].setConstant(std::nan(""));
+      }
+  for (const Eigen::Vector3d& hit : hits) {
+    if (!hit.allFinite()) {
+      frame.pcd += "nan nan nan\n";
+      ++frame.missing;
+    } else {
+      frame.pcd += fmt::format("{} {} {}\n", hit.x(), hit.y(), hit.z());
+    }
+  }
   return frame;
+}
+
+// Whether `mesh` has an edge between the vertices nearest to a and b.
+bool hasEdgeBetween(const Scan& mesh, const Vec3f& a, const Vec3f& b) {
+  const auto nearest = [&](const Vec3f& q) {
+    std::size_t best = 0;
+    for (std::size_t i = 1; i < mesh.points.size(); ++i)
+      if ((mesh.points.positions[i] - q).squaredNorm() < (mesh.points.positions[best] - q).squaredNorm()) best = i;
+    return static_cast<std::uint32_t>(best);
+  };
+  const std::uint32_t i = nearest(a), j = nearest(b);
+  return std::any_of(mesh.triangles.begin(), mesh.triangles.end(), [&](const Triangle& t) {
+    const auto has = [&](std::uint32_t v) { return t[0] == v || t[1] == v || t[2] == v; };
+    return has(i) && has(j);
+  });
 }
 
 TEST(IngestScan, ADepthFrameIsTriangulatedOnItsGridAndCutAtDepthJumps) {
@@ -98,6 +135,7 @@ TEST(IngestScan, ADepthFrameIsTriangulatedOnItsGridAndCutAtDepthJumps) {
   EXPECT_EQ(removedBy(report, "drop_non_finite"), frame.missing);
   EXPECT_EQ(report.gridMesh.sensorSource, "viewpoint");
   EXPECT_NEAR(report.gridMesh.angularStep, 1.0 / 80.0, 0.1 / 80.0);
+  EXPECT_EQ(report.gridMesh.maxEdgeInSpacings, 4.0);  // a clean frame: the floor
   EXPECT_GT(report.gridMesh.refused, 0u);  // the ball's silhouette against the wall
   EXPECT_EQ(report.normalsSource, "estimated");
   EXPECT_EQ(report.normalOrientation, "viewpoint");
@@ -118,9 +156,18 @@ TEST(IngestScan, ADepthFrameIsTriangulatedOnItsGridAndCutAtDepthJumps) {
     const Vec3f& n = mesh.points.normals[i];
     EXPECT_LT(n.dot(p.normalized()), 0.0f) << i;
     const Vec3f radial = (p - Vec3f(0, 0, 3)).normalized();
-    if (onBall(p) && radial.z() < -0.5f) EXPECT_GT(n.dot(radial), 0.99f) << i;
-    if (std::abs(p.z() - 5.0f) < 1e-3f && std::hypot(p.x(), p.y()) > 1.0f) EXPECT_GT(-n.z(), 0.999f) << i;
+    if (onBall(p) && radial.z() < -0.5f) {
+      EXPECT_GT(n.dot(radial), 0.99f) << i;
+    }
+    if (std::abs(p.z() - 5.0f) < 1e-3f && std::hypot(p.x(), p.y()) > 1.0f) {
+      EXPECT_GT(-n.z(), 0.999f) << i;
+    }
   }
+  // A lone pixel without a return leaves only its own diamond open: each of
+  // the four cells around it gets the triangle of its three other corners.
+  ASSERT_GE(frame.loneHoles.size(), 10u);
+  for (const auto& around : frame.loneHoles)
+    for (std::size_t k = 0; k < 4; ++k) EXPECT_TRUE(hasEdgeBetween(mesh, around[k], around[(k + 1) % 4])) << k;
   const auto json = nlohmann::json::parse(ingestReportJson(report));
   EXPECT_EQ(json["grid_mesh"]["pixels_without_return"], frame.missing);
   EXPECT_EQ(json["grid_mesh"]["triangles"], mesh.triangles.size());
@@ -132,6 +179,50 @@ TEST(IngestScan, ADepthFrameIsTriangulatedOnItsGridAndCutAtDepthJumps) {
   EXPECT_FALSE(points->report.isMesh);
   EXPECT_FALSE(points->report.gridMesh.made);
   EXPECT_TRUE(nlohmann::json::parse(ingestReportJson(points->report))["grid_mesh"].is_null());
+}
+
+// A noisy stereo frame of a floor seen at grazing angles (down to 9 degrees): its
+// neighbour distances spread far beyond 4 ray spacings without any depth
+// jump. The jump test rises with that spread (measured from the frame), so
+// the floor stays one surface instead of a sieve.
+TEST(IngestScan, ANoisyGrazingFrameIsNotCutIntoASieve) {
+  constexpr int width = 80, height = 60;
+  const Eigen::Vector3d normal = Eigen::Vector3d(0.0, -0.88, 0.47).normalized();
+  std::mt19937 random(7);
+  std::uniform_real_distribution<double> noise(-1.0, 1.0);
+  std::vector<Eigen::Vector3d> hits;
+  std::string pcd = fmt::format("VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH {}\nHEIGHT {}\n"
+                                "VIEWPOINT 0 0 0 1 0 0 0\nPOINTS {}\nDATA ascii\n",
+                                width, height, width * height);
+  for (int row = 0; row < height; ++row)
+    for (int column = 0; column < width; ++column) {
+      const Eigen::Vector3d ray =
+          Eigen::Vector3d((column - width / 2.0) / width, (row - height / 2.0) / width, 1.0).normalized();
+      const double range = 3.0 * normal.z() / ray.dot(normal);  // the plane through (0, 0, 3)
+      hits.push_back(range * (1.0 + 0.003 * noise(random)) * ray);
+      pcd += fmt::format("{} {} {}\n", hits.back().x(), hits.back().y(), hits.back().z());
+    }
+  // Independently: the cells a fixed 4-spacing test would cut.
+  std::size_t overFour = 0, cells = 0;
+  for (int row = 0; row + 1 < height; ++row)
+    for (int column = 0; column + 1 < width; ++column, ++cells) {
+      const auto& a = hits[row * width + column];
+      const auto& d = hits[(row + 1) * width + column + 1];
+      const double spacing = (1.0 / width) * (0.5 * (a + d)).norm();
+      if ((a - d).norm() > 4.0 * spacing || (a - hits[(row + 1) * width + column]).norm() > 4.0 * spacing) ++overFour;
+    }
+  ASSERT_GT(overFour, cells / 25) << overFour;
+  const fs::path path = test::freshTempDir() / "floor.pcd";
+  test::writeBytes(path, pcd);
+  auto result = ingestScan(path, IngestOptions{});
+  ASSERT_TRUE(result.ok()) << result.error().message;
+  const auto& grid = result->report.gridMesh;
+  ASSERT_TRUE(grid.made);
+  EXPECT_GT(grid.maxEdgeInSpacings, 4.0);
+  EXPECT_LE(grid.maxEdgeInSpacings, 10.0);
+  EXPECT_LT(grid.refused, grid.candidates / 100) << grid.maxEdgeInSpacings;
+  EXPECT_EQ(nlohmann::json::parse(ingestReportJson(result->report))["grid_mesh"]["max_edge_in_spacings"],
+            grid.maxEdgeInSpacings);
 }
 
 TEST(IngestScan, MeshSoupIsWeldedAndGetsFaceNormals) {

@@ -41,8 +41,11 @@ TEST(SimulateScanAsMesh, EachViewIsItsOwnSheetFacingItsScanner) {
   const Scan soup = rangeScanSoup(6);
   ASSERT_GT(soup.triangles.size(), 10000u);
   const auto evidence = mesh_input::judge(soup).value();
-  EXPECT_GE(evidence.pieces, 6u);  // no vertex shared between views (a rim cell may stand apart)
-  EXPECT_LE(evidence.pieces, 12u);
+  // No vertex shared between views; at the rim, a cell with three corners
+  // gets one triangle whose neighbours were refused as grazing, and may
+  // stand apart (a few per view).
+  EXPECT_GE(evidence.pieces, 6u);
+  EXPECT_LE(evidence.pieces, 60u);
   EXPECT_GT(evidence.boundaryEdgeFraction, 0.0);
   // Wound outward: the sphere's centre is behind every triangle.
   for (const Triangle& t : soup.triangles) {
