@@ -418,6 +418,27 @@ std::string header(const Json& manifest, const std::string& name) {
 // coarse mesh would otherwise carry.
 constexpr double kNormalMapBytes = 1024.0 * 1024.0 * 3.0;
 
+// How the APO's mean error compares with m alone's (`ratio` = m's / the
+// APO's), as the end of a sentence.
+std::string beside(double ratio, double baselineMean) {
+  if (ratio >= 1.05)
+    return fmt::format(", <b>{}&times; closer</b> than the coarse mesh m alone ({}).", ratioText(ratio), degrees(baselineMean, 1));
+  if (ratio > 0.95) return fmt::format(", about as close as the coarse mesh m alone ({}).", degrees(baselineMean, 1));
+  if (ratio > 0.0)
+    return fmt::format(", <b>{}&times; farther</b> than the coarse mesh m alone ({}): the APO does not help here.",
+                       ratioText(1.0 / ratio), degrees(baselineMean, 1));
+  return fmt::format(" (the coarse mesh m alone: {}).", degrees(baselineMean, 1));
+}
+
+// A point scan's first verdict: against its own points (docs/render.md).
+std::string scanVerdict(const Json* scan) {
+  const std::optional<double> apo = numberAt(scan, {"apo_filtered", "mean"}), coarse = numberAt(scan, {"m", "mean"});
+  if (!apo || !coarse || *apo <= 0.0) return "";
+  return fmt::format("<p>Against the scan's own points, APO normals are <b>{}</b> from the scan's normals on average",
+                     degrees(apo, 1)) +
+         beside(*coarse / *apo, *coarse) + "</p>\n";
+}
+
 std::string verdict(const Json& manifest) {
   const Json* render = results(manifest, "render");
   const Json* bake = results(manifest, "bake");
@@ -432,18 +453,13 @@ std::string verdict(const Json& manifest) {
   } else if (pixels && *pixels == 0.0) {
     html += "<p>No angular figures: the render had no reference M to compare with.</p>\n";
   } else if (apoMean && baselineMean) {
+    html += scanVerdict(child(render, "against_scan"));
     html += fmt::format("<p>APO normals are <b>{}</b> from the dense mesh M on average", degrees(apoMean, 1));
     if (*apoMean > 0.0) {
-      const double ratio = numberAt(render, {"overall", "baseline_over_apo"}).value_or(*baselineMean / *apoMean);
-      if (ratio >= 1.05)
-        html += fmt::format(", <b>{}&times; closer</b> than the coarse mesh m alone ({}).", ratioText(ratio), degrees(baselineMean, 1));
-      else if (ratio > 0.95)
-        html += fmt::format(", about as close as the coarse mesh m alone ({}).", degrees(baselineMean, 1));
-      else if (ratio > 0.0)
-        html += fmt::format(", <b>{}&times; farther</b> than the coarse mesh m alone ({}): the APO does not help here.",
-                            ratioText(1.0 / ratio), degrees(baselineMean, 1));
-      else
-        html += fmt::format(" (the coarse mesh m alone: {}).", degrees(baselineMean, 1));
+      html += beside(numberAt(render, {"overall", "baseline_over_apo"}).value_or(*baselineMean / *apoMean), *baselineMean);
+      if (textAt(at(bake, {"detail_source"}), {"chosen"}) == "points" && child(render, "against_scan") != nullptr)
+        html += " The APO was baked from the scan's points, which M smooths: against M it also carries M's distance "
+                "from the scan.";
     } else {
       html += fmt::format(": they match it exactly (the coarse mesh m alone: {}).", degrees(baselineMean, 1));
     }

@@ -207,6 +207,10 @@ TEST(ReportHtml, ShowsTheFiguresAgainstTheScanForPointScans) {
                               "<td class=\"n\">3.66&deg;</td>"));
   EXPECT_THAT(html, HasSubstr("180,000 of 200,000"));
   EXPECT_THAT(html, HasSubstr("5,210 scan points"));
+  // The verdict leads with the scan: 3.139 / 2.827 = 1.11 times.
+  EXPECT_THAT(html, HasSubstr("Against the scan's own points, APO normals are <b>2.8&deg;</b> from the scan's normals "
+                              "on average, <b>1.1&times; closer</b> than the coarse mesh m alone (3.1&deg;).</p>\n"
+                              "<p>APO normals are"));
   EXPECT_THAT(html, HasSubstr("0.00102 / 0.00378"));
   m["results"]["render"]["against_scan"] = nullptr;
   EXPECT_THAT(qaReportHtml(m), Not(HasSubstr("against the scan's own points")));
@@ -226,6 +230,11 @@ TEST(ReportHtml, SaysWhatTheApoWasBakedFromAndWhy) {
                               "closer; against the scan, baked from M 4.52&deg; in 272.0 KiB, from the points 3.10&deg; "
                               "in 2.0 MiB)</td>"));
   EXPECT_THAT(html, HasSubstr("these figures compare it with M"));
+  // Against M, the verdict says why the APO carries M's distance (when
+  // there are figures against the scan to read instead).
+  EXPECT_THAT(html, Not(HasSubstr("which M smooths")));
+  m["results"]["render"]["against_scan"] = {{"m", {{"mean", 3.1}}}, {"apo_filtered", {{"mean", 2.5}}}};
+  EXPECT_THAT(qaReportHtml(m), HasSubstr("The APO was baked from the scan's points, which M smooths"));
   m["results"]["bake"]["detail_source"] = {{"option", "auto"}, {"chosen", "mesh"}, {"reason", "the scan is a mesh"}};
   EXPECT_THAT(qaReportHtml(m), Not(HasSubstr("these figures compare it with M")));
   EXPECT_THAT(qaReportHtml(m), HasSubstr("<td>baked from</td><td class=\"n\">mesh (auto: the scan is a mesh)</td>"));
