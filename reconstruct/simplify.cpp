@@ -8,6 +8,7 @@
 #include "reconstruct/mesh_quality.h"
 
 #include <spdlog/spdlog.h>
+#include <tbb/parallel_invoke.h>
 
 #include <algorithm>
 #include <cmath>
@@ -50,9 +51,12 @@ Result<OneSided> distancesFromSamples(const Scan& from, const Scan& to) {
 Status measureDistances(const Scan& coarse, const Scan& dense, SimplifyReport& report) {
   const double diagonal = boundingBox(dense.points.positions).diagonal();
   if (diagonal <= 0.0) return okStatus();
-  const Result<OneSided> coarseToDense = distancesFromSamples(coarse, dense);
+  // The two sides at once: M's tree is built on one core while M is sampled
+  // and measured against m's on the other.
+  Result<OneSided> coarseToDense = OneSided{}, denseToCoarse = OneSided{};
+  tbb::parallel_invoke([&] { coarseToDense = distancesFromSamples(coarse, dense); },
+                       [&] { denseToCoarse = distancesFromSamples(dense, coarse); });
   if (!coarseToDense) return coarseToDense.error();
-  const Result<OneSided> denseToCoarse = distancesFromSamples(dense, coarse);
   if (!denseToCoarse) return denseToCoarse.error();
   report.hausdorff = std::max(coarseToDense->max, denseToCoarse->max) / diagonal;
   report.meanDistance = 0.5 * (coarseToDense->mean + denseToCoarse->mean) / diagonal;
