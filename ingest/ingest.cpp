@@ -12,6 +12,7 @@
 #include "ingest/normals.h"
 #include "ingest/range_grid.h"
 
+#include <algorithm>
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
@@ -183,11 +184,14 @@ Status gridMeshNormals(Scan& scan, const IngestOptions& options, IngestReport& r
   Stopwatch watch;
   auto fitted = normals::estimateOrientedNormals(scan.points.positions, sensor, options.normalNeighbours);
   if (!fitted) return fitted.error();
-  const std::vector<Vec3f> fromFaces = areaWeightedVertexNormals(scan);
   scan.points.normals = std::move(fitted->normals);
   // A vertex whose neighbourhood fits no plane keeps its faces' normal.
-  for (std::size_t i = 0; i < scan.points.size(); ++i)
-    if (!scan.points.normals[i].allFinite()) scan.points.normals[i] = fromFaces[i];
+  const auto unfitted = [](const Vec3f& n) { return !n.allFinite(); };
+  if (std::any_of(scan.points.normals.begin(), scan.points.normals.end(), unfitted)) {
+    const std::vector<Vec3f> fromFaces = areaWeightedVertexNormals(scan);
+    for (std::size_t i = 0; i < scan.points.size(); ++i)
+      if (unfitted(scan.points.normals[i])) scan.points.normals[i] = fromFaces[i];
+  }
   report.normalSeconds = watch.seconds();
   report.normalsSource = "estimated";
   report.normalOrientation = "viewpoint";

@@ -176,10 +176,12 @@ class Run {
     if (!fromMesh) return fromMesh.error();
     auto fromPoints = bakeFrom(data_.scan, 0.4, 0.8);
     if (!fromPoints) return fromPoints.error();
+    const Stopwatch judging;
     auto probes = scanProbes();
     if (!probes) return probes.error();
     const AngularStats meshError = apoErrorAgainstScan(**probes, fromMesh->texture);
     const AngularStats pointsError = apoErrorAgainstScan(**probes, fromPoints->texture);
+    choice["judging_seconds"] = judging.seconds();
     const bool points = pointsError.mean < (1.0 - kPointsDetailMargin) * meshError.mean;
     choice["chosen"] = points ? "points" : "mesh";
     choice["reason"] = fmt::format("the APO baked from the {} is closer to the scan's own points", points ? "points" : "mesh");
@@ -238,11 +240,14 @@ class Run {
     // scan's own points too (docs/render.md, "Against the scan").
     manifest_["results"]["render"]["against_scan"] = nullptr;
     if (judgedAgainstScan()) {
+      const Stopwatch judging;
       auto probes = scanProbes();
       if (!probes) return probes.error();
       auto fidelity = measureAgainstScan(**probes, data_.scan.points, data_.dense, data_.texture);
       if (!fidelity) return aboutInput(settings_.input, fidelity.error());
       manifest_["results"]["render"]["against_scan"] = Json::parse(scanFidelityJson(*fidelity));
+      // The probes, when the bake made them, are not in this figure.
+      manifest_["results"]["render"]["against_scan"]["seconds"] = judging.seconds();
     }
     addFile("renders", kRenderFolder);
     return okStatus();

@@ -35,17 +35,25 @@ using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<fl
 constexpr std::size_t kLeafSize = 20;
 constexpr std::size_t kRowsPerTask = 4096;
 
-// Row i of the graph: the k + 1 nearest points of point i with i itself left
-// out (among more than k + 1 coincident points it may be missing; then the
-// k nearest found).
-void fillRow(const Tree& tree, const std::vector<Vec3f>& points, std::size_t i, std::size_t k,
-             std::vector<std::uint32_t>& found, std::vector<float>& squaredDistances, std::uint32_t* row) {
-  nanoflann::KNNResultSet<float, std::uint32_t> results(k + 1);
-  results.init(found.data(), squaredDistances.data());
-  tree.findNeighbors(results, points[i].data(), nanoflann::SearchParams());
-  std::size_t written = 0;
-  for (std::size_t j = 0; j < results.size() && written < k; ++j)
-    if (found[j] != i) row[written++] = found[j];
+// Hands `visit(q, found, squaredDistances, count)` the k nearest reference
+// points of every query q (`queryAt(q)`: its coordinates), nearest first,
+// searched on every core. Each query is answered by exactly one task, so the
+// answers do not depend on the number of threads.
+template <class QueryAt, class Visit>
+void forEachNearest(const std::vector<Vec3f>& reference, std::size_t queryCount, std::size_t k, QueryAt&& queryAt,
+                    Visit&& visit) {
+  const PointsView view{reference};
+  const Tree tree(3, view, nanoflann::KDTreeSingleIndexAdaptorParams(kLeafSize));
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, queryCount, kRowsPerTask), [&](const auto& range) {
+    std::vector<std::uint32_t> found(k);
+    std::vector<float> squaredDistances(k);
+    for (std::size_t q = range.begin(); q < range.end(); ++q) {
+      nanoflann::KNNResultSet<float, std::uint32_t> results(k);
+      results.init(found.data(), squaredDistances.data());
+      tree.findNeighbors(results, queryAt(q), nanoflann::SearchParams());
+      visit(q, found.data(), squaredDistances.data(), results.size());
+    }
+  });
 }
 
 }  // namespace
@@ -59,16 +67,17 @@ Result<flann_adapter::NeighbourGraph> flann_adapter::nearestNeighbourGraph(const
     return badInput("{} points: more than a 32-bit neighbour index can hold", points.size());
   return catchLibraryErrors("nanoflann k-nearest graph", [&]() -> Result<NeighbourGraph> {
     graph.neighbours.resize(points.size() * graph.k);
-    const PointsView view{points};
-    const Tree tree(3, view, nanoflann::KDTreeSingleIndexAdaptorParams(kLeafSize));
-    // Each row is written by exactly one task: the graph does not depend on
-    // the number of threads.
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), kRowsPerTask), [&](const auto& rows) {
-      std::vector<std::uint32_t> found(graph.k + 1);
-      std::vector<float> squaredDistances(graph.k + 1);
-      for (std::size_t i = rows.begin(); i < rows.end(); ++i)
-        fillRow(tree, points, i, graph.k, found, squaredDistances, &graph.neighbours[i * graph.k]);
-    });
+    // Row i: the k + 1 nearest points of point i with i itself left out
+    // (among more than k + 1 coincident points it may be missing; then the
+    // k nearest found).
+    forEachNearest(
+        points, points.size(), graph.k + 1, [&](std::size_t i) { return points[i].data(); },
+        [&](std::size_t i, const std::uint32_t* found, const float*, std::size_t count) {
+          std::uint32_t* row = &graph.neighbours[i * graph.k];
+          std::size_t written = 0;
+          for (std::size_t j = 0; j < count && written < graph.k; ++j)
+            if (found[j] != i) row[written++] = found[j];
+        });
     return std::move(graph);
   });
 }
@@ -83,15 +92,12 @@ Result<flann_adapter::NearestRows> flann_adapter::nearestOf(const std::vector<Ve
   return catchLibraryErrors("nanoflann k-nearest search", [&]() -> Result<NearestRows> {
     rows.indices.resize(queries.size() * rows.k);
     rows.squaredDistances.resize(queries.size() * rows.k);
-    const PointsView view{reference};
-    const Tree tree(3, view, nanoflann::KDTreeSingleIndexAdaptorParams(kLeafSize));
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, queries.size(), kRowsPerTask), [&](const auto& range) {
-      for (std::size_t q = range.begin(); q < range.end(); ++q) {
-        nanoflann::KNNResultSet<float, std::uint32_t> results(rows.k);
-        results.init(&rows.indices[q * rows.k], &rows.squaredDistances[q * rows.k]);
-        tree.findNeighbors(results, queries[q].data(), nanoflann::SearchParams());
-      }
-    });
+    forEachNearest(
+        reference, queries.size(), rows.k, [&](std::size_t q) { return queries[q].data(); },
+        [&](std::size_t q, const std::uint32_t* found, const float* squaredDistances, std::size_t count) {
+          std::copy(found, found + count, &rows.indices[q * rows.k]);
+          std::copy(squaredDistances, squaredDistances + count, &rows.squaredDistances[q * rows.k]);
+        });
     return std::move(rows);
   });
 }
