@@ -8,7 +8,7 @@
 #include "reconstruct/mesh_quality.h"
 
 #include <spdlog/spdlog.h>
-#include <tbb/parallel_invoke.h>
+#include <tbb/task_group.h>
 
 #include <algorithm>
 #include <cmath>
@@ -36,30 +36,42 @@ struct OneSided {
   double max = 0.0, mean = 0.0;
 };
 
-Result<OneSided> distancesFromSamples(const Scan& from, const Scan& to) {
-  const auto distances = cgal_adapter::pointToMeshDistances(sampleSurface(from, kDistanceSamples), to);
-  if (!distances) return distances.error();
+OneSided summary(const std::vector<float>& distances) {
   OneSided figures;
-  if (distances->empty()) return figures;
-  figures.max = *std::max_element(distances->begin(), distances->end());
-  figures.mean = std::accumulate(distances->begin(), distances->end(), 0.0) / static_cast<double>(distances->size());
+  if (distances.empty()) return figures;
+  figures.max = *std::max_element(distances.begin(), distances.end());
+  figures.mean = std::accumulate(distances.begin(), distances.end(), 0.0) / static_cast<double>(distances.size());
   return figures;
+}
+
+// M's side of the distance measures, independent of m: made on another core
+// while the collapses (one core) make m.
+struct DenseSide {
+  std::vector<Vec3f> samples;                            // area-proportional, on M
+  std::optional<cgal_adapter::MeshDistance> distanceTo;  // M's tree
+};
+
+Result<DenseSide> prepareDenseSide(const Scan& dense) {
+  DenseSide side;
+  side.samples = sampleSurface(dense, kDistanceSamples);
+  auto tree = cgal_adapter::MeshDistance::make(dense, kDistanceSamples);
+  if (!tree) return tree.error();
+  side.distanceTo = std::move(*tree);
+  return side;
 }
 
 // Two-sided Hausdorff and mean distances between m and M, as fractions of M's
 // bounding-box diagonal, from area-proportional samples of each surface.
-Status measureDistances(const Scan& coarse, const Scan& dense, SimplifyReport& report) {
+Status measureDistances(const Scan& coarse, const Scan& dense, const DenseSide& denseSide, SimplifyReport& report) {
   const double diagonal = boundingBox(dense.points.positions).diagonal();
   if (diagonal <= 0.0) return okStatus();
-  // The two sides at once: M's tree is built on one core while M is sampled
-  // and measured against m's on the other.
-  Result<OneSided> coarseToDense = OneSided{}, denseToCoarse = OneSided{};
-  tbb::parallel_invoke([&] { coarseToDense = distancesFromSamples(coarse, dense); },
-                       [&] { denseToCoarse = distancesFromSamples(dense, coarse); });
+  const auto coarseToDense = (*denseSide.distanceTo)(sampleSurface(coarse, kDistanceSamples));
   if (!coarseToDense) return coarseToDense.error();
+  const auto denseToCoarse = cgal_adapter::pointToMeshDistances(denseSide.samples, coarse);
   if (!denseToCoarse) return denseToCoarse.error();
-  report.hausdorff = std::max(coarseToDense->max, denseToCoarse->max) / diagonal;
-  report.meanDistance = 0.5 * (coarseToDense->mean + denseToCoarse->mean) / diagonal;
+  const OneSided there = summary(*coarseToDense), back = summary(*denseToCoarse);
+  report.hausdorff = std::max(there.max, back.max) / diagonal;
+  report.meanDistance = 0.5 * (there.mean + back.mean) / diagonal;
   return okStatus();
 }
 
@@ -159,44 +171,20 @@ std::vector<Eigen::Matrix4d> inheritedQuadrics(const Scan& dense, const meshopt_
   return inherited;
 }
 
-}  // namespace
-
-Status validateSimplifyOptions(const SimplifyOptions& options) {
-  if (options.ratio != 0.0 && !(options.ratio > 0.0 && options.ratio <= 1.0))
-    return usageError("--ratio must be in (0, 1], got {}", options.ratio);
-  if (options.ratio == 0.0 && options.targetFaces < kMinTargetFaces)
-    return usageError("--faces must be at least {}, got {}", kMinTargetFaces, options.targetFaces);
-  return okStatus();
-}
-
-std::string policyName(SimplifyPolicy policy) {
-  switch (policy) {
-    case SimplifyPolicy::GarlandHeckbert: return "garland-heckbert";
-    case SimplifyPolicy::LindstromTurk: return "lindstrom-turk";
-  }
-  return "unknown";
-}
-
 // Collapsing is most of a simplification's time; the distance measures the rest.
 constexpr double kCollapseShare = 0.8;
 
-Result<Simplification> simplifyMesh(const Scan& mesh, const SimplifyOptions& options, const ProgressCallback& onProgress) {
-  APO_RETURN_IF_ERROR(validateSimplifyOptions(options));
-  if (!mesh.isMesh()) return badInput("simplification needs a triangle mesh, got {} points and no triangles", mesh.points.size());
-  const std::uint64_t target = targetFaceCount(mesh, options);
-  Stopwatch watch;
-  Simplification result;
-  SimplifyReport& report = result.report;
-  report.policy = policyName(options.policy);
-  report.facesIn = mesh.triangles.size();
-  report.targetFaces = target;
-
+// m from M: the quick pass when M is large, then CGAL's collapses to the
+// target (report.targetFaces), M's planes handed down.
+Status makeCoarse(const Scan& mesh, const SimplifyOptions& options, const ProgressCallback& onProgress,
+                  SimplifyReport& report, Scan& coarse) {
+  const std::uint64_t target = report.targetFaces;
   if (target >= mesh.triangles.size()) {
     // Nothing to collapse: m is M, said so rather than refused.
     spdlog::warn("simplify: target {} faces is not below the input's {}; m is the input mesh", target,
                  mesh.triangles.size());
     report.policy = "none (target not below input)";
-    result.mesh = mesh;
+    coarse = mesh;
   } else {
     auto quick = quickFirstPass(mesh, target, options);
     if (!quick) return quick.error();
@@ -227,8 +215,48 @@ Result<Simplification> simplifyMesh(const Scan& mesh, const SimplifyOptions& opt
       spdlog::warn("simplify: this mesh's borders (holes, open edges) alone hold more than {} faces; border edges "
                    "were collapsed too, keeping their shape (Lindstrom-Turk)",
                    report.targetFaces);
-    result.mesh = std::move(collapsed->mesh);
+    coarse = std::move(collapsed->mesh);
   }
+  return okStatus();
+}
+
+}  // namespace
+
+Status validateSimplifyOptions(const SimplifyOptions& options) {
+  if (options.ratio != 0.0 && !(options.ratio > 0.0 && options.ratio <= 1.0))
+    return usageError("--ratio must be in (0, 1], got {}", options.ratio);
+  if (options.ratio == 0.0 && options.targetFaces < kMinTargetFaces)
+    return usageError("--faces must be at least {}, got {}", kMinTargetFaces, options.targetFaces);
+  return okStatus();
+}
+
+std::string policyName(SimplifyPolicy policy) {
+  switch (policy) {
+    case SimplifyPolicy::GarlandHeckbert: return "garland-heckbert";
+    case SimplifyPolicy::LindstromTurk: return "lindstrom-turk";
+  }
+  return "unknown";
+}
+
+Result<Simplification> simplifyMesh(const Scan& mesh, const SimplifyOptions& options, const ProgressCallback& onProgress) {
+  APO_RETURN_IF_ERROR(validateSimplifyOptions(options));
+  if (!mesh.isMesh()) return badInput("simplification needs a triangle mesh, got {} points and no triangles", mesh.points.size());
+  const std::uint64_t target = targetFaceCount(mesh, options);
+  Stopwatch watch;
+  Simplification result;
+  SimplifyReport& report = result.report;
+  report.policy = policyName(options.policy);
+  report.facesIn = mesh.triangles.size();
+  report.targetFaces = target;
+
+  // M's side of the measures is prepared on the other core meanwhile.
+  Result<DenseSide> denseSide = DenseSide{};
+  tbb::task_group group;
+  group.run([&] { denseSide = prepareDenseSide(mesh); });
+  const Status made = makeCoarse(mesh, options, onProgress, report, result.mesh);
+  group.wait();
+  APO_RETURN_IF_ERROR(made);
+  if (!denseSide) return denseSide.error();
   result.mesh.origin = mesh.origin;  // m stays in M's frame
   result.mesh.readNotes.clear();
   dropDegenerateTriangles(result.mesh);
@@ -240,7 +268,7 @@ Result<Simplification> simplifyMesh(const Scan& mesh, const SimplifyOptions& opt
                  "and free of degenerate faces",
                  report.facesOut, report.targetFaces);
   report.quality = measureMesh(result.mesh);
-  APO_RETURN_IF_ERROR(measureDistances(result.mesh, mesh, report));
+  APO_RETURN_IF_ERROR(measureDistances(result.mesh, mesh, *denseSide, report));
   report.seconds = watch.seconds();
   reportProgress(onProgress, 1.0);
   return result;

@@ -52,23 +52,48 @@ std::vector<std::pair<Kernel::Point_3, std::vector<Triangle3>::const_iterator>> 
 
 }  // namespace
 
-Result<std::vector<float>> pointToMeshDistances(const std::vector<Vec3f>& points, const Scan& mesh) {
+struct MeshDistance::Tree {
+  std::vector<Triangle3> triangles;  // the tree holds iterators into them: never moved
+  TriangleTree tree;
+};
+
+MeshDistance::MeshDistance(std::unique_ptr<Tree> tree) : tree_(std::move(tree)) {}
+MeshDistance::MeshDistance(MeshDistance&&) noexcept = default;
+MeshDistance& MeshDistance::operator=(MeshDistance&&) noexcept = default;
+MeshDistance::~MeshDistance() = default;
+
+Result<MeshDistance> MeshDistance::make(const Scan& mesh, std::size_t queries) {
+  return catchLibraryErrors("CGAL AABB tree", [&]() -> Result<MeshDistance> {
+    auto made = std::make_unique<Tree>();
+    made->triangles = cgalTriangles(mesh);
+    if (!made->triangles.empty()) {
+      made->tree.insert(made->triangles.begin(), made->triangles.end());
+      // Built here, once: the queries run in parallel.
+      made->tree.build();
+      const auto hints = distanceHints(made->triangles, queries);
+      made->tree.accelerate_distance_queries(hints.begin(), hints.end());
+    }
+    return MeshDistance(std::move(made));
+  });
+}
+
+Result<std::vector<float>> MeshDistance::operator()(const std::vector<Vec3f>& points) const {
+  // TBB hands a worker's exception to this thread, where catchLibraryErrors takes it.
   return catchLibraryErrors("CGAL AABB tree distances", [&] {
     std::vector<float> distances(points.size(), std::numeric_limits<float>::infinity());
-    if (mesh.triangles.empty()) return distances;
-    const std::vector<Triangle3> triangles = cgalTriangles(mesh);
-    TriangleTree tree(triangles.begin(), triangles.end());
-    // Built here, once: the queries below run in parallel (TBB hands a
-    // worker's exception to this thread, where catchLibraryErrors takes it).
-    tree.build();
-    const auto hints = distanceHints(triangles, points.size());
-    tree.accelerate_distance_queries(hints.begin(), hints.end());
+    if (tree_->triangles.empty()) return distances;
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size()), [&](const tbb::blocked_range<std::size_t>& range) {
       for (std::size_t i = range.begin(); i != range.end(); ++i)
-        distances[i] = static_cast<float>(std::sqrt(tree.squared_distance(toPoint(points[i]))));
+        distances[i] = static_cast<float>(std::sqrt(tree_->tree.squared_distance(toPoint(points[i]))));
     });
     return distances;
   });
+}
+
+Result<std::vector<float>> pointToMeshDistances(const std::vector<Vec3f>& points, const Scan& mesh) {
+  auto distance = MeshDistance::make(mesh, points.size());
+  if (!distance) return distance.error();
+  return (*distance)(points);
 }
 
 }  // namespace apo::cgal_adapter

@@ -10,6 +10,7 @@
 #include "core/timing.h"
 
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 namespace apo::cgal_adapter {
@@ -88,8 +89,26 @@ Result<EdgeCollapseResult> edgeCollapse(const Scan& mesh, std::uint64_t targetFa
 
 // --- cgal_distances.cpp -----------------------------------------------------
 
-// Unsigned distances from each point to the mesh (CGAL AABB tree); +infinity
-// for every point when the mesh has no triangle.
+// Unsigned distances from points to one triangle mesh (CGAL AABB tree),
+// the tree built once by `make` (for about `queries` points at a time), so
+// that it can be built on one core while another works; +infinity for every
+// point when the mesh has no triangle. Queries run on every core.
+class MeshDistance {
+ public:
+  static Result<MeshDistance> make(const Scan& mesh, std::size_t queries);
+  Result<std::vector<float>> operator()(const std::vector<Vec3f>& points) const;
+
+  MeshDistance(MeshDistance&&) noexcept;
+  MeshDistance& operator=(MeshDistance&&) noexcept;
+  ~MeshDistance();
+
+ private:
+  struct Tree;
+  explicit MeshDistance(std::unique_ptr<Tree> tree);
+  std::unique_ptr<Tree> tree_;
+};
+
+// The same, the tree made for these points.
 Result<std::vector<float>> pointToMeshDistances(const std::vector<Vec3f>& points, const Scan& mesh);
 
 }  // namespace apo::cgal_adapter
