@@ -184,7 +184,10 @@ class Run {
     choice["judging_seconds"] = judging.seconds();
     const bool points = pointsError.mean < (1.0 - kPointsDetailMargin) * meshError.mean;
     choice["chosen"] = points ? "points" : "mesh";
-    choice["reason"] = fmt::format("the APO baked from the {} is closer to the scan's own points", points ? "points" : "mesh");
+    choice["reason"] = points ? "the APO baked from the points is closer to the scan's own points"
+                       : pointsError.mean < meshError.mean
+                           ? "the APO baked from the points is closer to the scan's own points, but by less than the margin"
+                           : "the APO baked from the mesh is closer to the scan's own points";
     const auto candidate = [](const Bake& baked, const AngularStats& error) {
       return Json{{"against_scan_mean_degrees", error.mean}, {"texture_bytes", baked.report.textureBytes}};
     };
@@ -208,7 +211,9 @@ class Run {
     data_.reference = &data_.dense;
     if (option == DetailSource::Auto && judgedAgainstScan()) return bakeCloserToScan(choice);
     choice["chosen"] = "mesh";
-    choice["reason"] = option == DetailSource::Mesh ? "--detail-source mesh" : "the scan is a mesh: M is the scan";
+    choice["reason"] = option == DetailSource::Mesh ? "--detail-source mesh"
+                       : data_.scan.isMesh()            ? "the scan is a mesh: M is the scan"
+                                                        : "the scan's points have no normals to judge against";
     return bakeFrom(data_.dense, 0.0, 1.0);
   }
 
