@@ -54,7 +54,10 @@ echo "first batch: exit code $status in $(( $(date +%s) - start )) s; $(cat "$ou
 rm -rf "$out/resumed" "$out/subset"
 mkdir -p "$out/subset"
 cp -a "$out/scans/broken" "$out/subset/"
-find "$out/scans" -type l | sort | head -12 | while IFS= read -r link; do
+# (read from a process substitution: head closing the pipe early must not
+# stop the script under pipefail)
+mapfile -t firstScans < <(find "$out/scans" -type l | sort | head -12)
+for link in "${firstScans[@]}"; do
   relative=${link#"$out/scans/"}
   mkdir -p "$out/subset/$(dirname "$relative")"
   cp -a "$link" "$out/subset/$relative"

@@ -1,6 +1,7 @@
 #include "ingest/mesh_input.h"
 
 #include "adapters/flann/flann_search.h"
+#include "core/surface_limits.h"
 
 #include <algorithm>
 #include <vector>
@@ -75,7 +76,10 @@ Result<Evidence> judge(const Scan& mesh) {
     }
   }
   evidence.overlapFraction = referenced ? static_cast<double>(overlapping) / static_cast<double>(referenced) : 0.0;
-  evidence.looksLikeScans = evidence.overlapFraction >= kScansOverlapFraction;
+  // A mesh of fewer vertices than a surface is reconstructed from stays one
+  // surface, whatever its pieces do.
+  evidence.looksLikeScans =
+      evidence.overlapFraction >= kScansOverlapFraction && referenced >= kMinReconstructionPoints;
   return evidence;
 }
 

@@ -16,7 +16,8 @@ namespace apo::mesh_input {
 // lie within a few sample spacings of each other.
 inline constexpr double kOverlapEdgeLengths = 3.0;
 // The mesh is a set of scans when at least this fraction of its vertices
-// overlap another piece (a mesh of separate parts only touches at seams).
+// overlap another piece (a mesh of separate parts only touches at seams),
+// and it has at least kMinReconstructionPoints of them (core/surface_limits.h).
 inline constexpr double kScansOverlapFraction = 0.10;
 
 struct Evidence {

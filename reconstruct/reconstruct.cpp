@@ -6,6 +6,7 @@
 #include "adapters/cgal/cgal_jobs.h"
 #include "adapters/flann/flann_search.h"
 #include "core/mesh_edit.h"
+#include "core/surface_limits.h"
 #include "core/timing.h"
 #include "reconstruct/mesh_quality.h"
 
@@ -19,8 +20,6 @@
 namespace apo {
 namespace {
 
-// Below this a surface is not worth fitting (and CGAL's methods misbehave).
-constexpr std::size_t kMinPoints = 100;
 // Points whose distance to M is measured, at most (evenly strided).
 constexpr std::size_t kMaxDistanceSamples = 200000;
 // Relative thickness below which the points count as one plane.
@@ -59,8 +58,8 @@ double relativeThickness(const std::vector<Vec3f>& points) {
 }
 
 Status validatePoints(const PointSet& points) {
-  if (points.size() < kMinPoints)
-    return badInput("{} points are too few to reconstruct a surface (need at least {})", points.size(), kMinPoints);
+  if (points.size() < kMinReconstructionPoints)
+    return badInput("{} points are too few to reconstruct a surface (need at least {})", points.size(), kMinReconstructionPoints);
   if (!points.hasNormals())
     return badInput("the points have no normals: run `apo ingest` first, which estimates and orients them");
   for (std::size_t i = 0; i < points.size(); ++i)

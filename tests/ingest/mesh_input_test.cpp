@@ -87,6 +87,37 @@ TEST(MeshInput, OneSurfaceAndSeparatePartsStayMeshes) {
   }
 }
 
+// Two registered copies of an n x n grid sheet, as one soup: every vertex
+// overlaps the other piece.
+Scan twoOverlappingSheets(int n) {
+  Scan soup;
+  for (int copy = 0; copy < 2; ++copy) {
+    const auto base = static_cast<std::uint32_t>(soup.points.size());
+    for (int row = 0; row < n; ++row)
+      for (int column = 0; column < n; ++column)
+        soup.points.positions.emplace_back(static_cast<float>(column), static_cast<float>(row), 0.01f * copy);
+    for (int row = 0; row + 1 < n; ++row)
+      for (int column = 0; column + 1 < n; ++column) {
+        const auto at = [&](int r, int c) { return base + static_cast<std::uint32_t>(r * n + c); };
+        soup.triangles.push_back({at(row, column), at(row, column + 1), at(row + 1, column + 1)});
+        soup.triangles.push_back({at(row, column), at(row + 1, column + 1), at(row + 1, column)});
+      }
+  }
+  return soup;
+}
+
+// Read as scans, a mesh of fewer vertices than a surface is reconstructed
+// from would only fail later: it stays one surface (two tiny CGAL meshes of
+// 7 and 8 vertices did so).
+TEST(MeshInput, AMeshTooSmallToReconstructStaysASurface) {
+  const auto tiny = mesh_input::judge(twoOverlappingSheets(6)).value();  // 72 vertices
+  EXPECT_EQ(tiny.overlapFraction, 1.0);
+  EXPECT_FALSE(tiny.looksLikeScans);
+  const auto enough = mesh_input::judge(twoOverlappingSheets(8)).value();  // 128 vertices
+  EXPECT_EQ(enough.overlapFraction, 1.0);
+  EXPECT_TRUE(enough.looksLikeScans);
+}
+
 TEST(MeshInput, TheDecisionCanBeForcedEitherWay) {
   IngestOptions surface;
   surface.meshInput = MeshInput::Surface;
