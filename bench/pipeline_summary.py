@@ -76,6 +76,16 @@ def main():
             if before:
                 line += f" (in the other folder: median {statistics.median(before):.2f} deg)"
         print(line + ".")
+        # Point scans are judged against their own points too (a points-baked
+        # APO follows the scan, not M): the truth each scan has.
+        judged = [m["results"]["render"].get("against_scan") for _, m in group]
+        truth_better = sum(1 for (a, b), scan in zip(zip(apo, bare), judged)
+                           if (scan["apo_filtered"]["mean"] < scan["m"]["mean"] if scan else a < b))
+        points_kept = sum(1 for _, m in group
+                          if m["results"]["bake"].get("detail_source", {}).get("chosen") == "points")
+        print(f"  Against each scan's own points for point scans ({sum(1 for j in judged if j)}; baked from the "
+              f"points: {points_kept}) and against M for meshes: the APO is closer than m alone on {truth_better} of "
+              f"{len(group)}.")
 
 
 if __name__ == "__main__":
