@@ -15,6 +15,7 @@ constexpr std::size_t kNeighbours = 8;
 struct EdgeFigures {
   double boundaryFraction = 0.0;
   double medianLength = 0.0;
+  std::vector<char> onBoundary;  // per vertex: on an edge with one triangle
 };
 
 EdgeFigures edgeFigures(const Scan& mesh) {
@@ -28,16 +29,20 @@ EdgeFigures edgeFigures(const Scan& mesh) {
   std::sort(edges.begin(), edges.end());
   std::size_t unique = 0, boundary = 0;
   std::vector<float> lengths;
+  EdgeFigures figures;
+  figures.onBoundary.assign(mesh.points.size(), 0);
   for (std::size_t i = 0; i < edges.size();) {
     std::size_t j = i + 1;
     while (j < edges.size() && edges[j] == edges[i]) ++j;
     ++unique;
-    boundary += j - i == 1;
+    if (j - i == 1) {
+      ++boundary;
+      figures.onBoundary[edges[i] >> 32] = figures.onBoundary[edges[i] & 0xFFFFFFFFu] = 1;
+    }
     const auto& p = mesh.points.positions;
     lengths.push_back((p[edges[i] >> 32] - p[edges[i] & 0xFFFFFFFFu]).norm());
     i = j;
   }
-  EdgeFigures figures;
   if (unique == 0) return figures;
   figures.boundaryFraction = static_cast<double>(boundary) / static_cast<double>(unique);
   const auto middle = lengths.begin() + static_cast<std::ptrdiff_t>(lengths.size() / 2);
@@ -59,17 +64,26 @@ Result<Evidence> judge(const Scan& mesh) {
   evidence.medianEdgeLength = edges.medianLength;
   if (evidence.pieces < 2) return evidence;
 
+  // Range scans are open sheets: a closed piece (a part of a model, however
+  // close to the others) is a surface and does not count.
+  std::vector<char> openPiece(pieces.count, 0);
+  for (std::size_t i = 0; i < piece.size(); ++i)
+    if (edges.onBoundary[i] && piece[i] != MeshPieces::kNoPiece) openPiece[piece[i]] = 1;
+  const auto open = [&](std::uint32_t v) { return piece[v] != MeshPieces::kNoPiece && openPiece[piece[v]]; };
+  const std::vector<Vec3f> normals =
+      mesh.points.hasNormals() ? mesh.points.normals : areaWeightedVertexNormals(mesh);
   const auto graph = flann_adapter::nearestNeighbourGraph(mesh.points.positions, kNeighbours);
   if (!graph) return graph.error();
   const double reach2 = kOverlapEdgeLengths * kOverlapEdgeLengths * edges.medianLength * edges.medianLength;
   std::size_t overlapping = 0, referenced = 0;
   const auto& p = mesh.points.positions;
-  for (std::size_t i = 0; i < p.size(); ++i) {
-    if (piece[i] == MeshPieces::kNoPiece) continue;
+  for (std::uint32_t i = 0; i < p.size(); ++i) {
+    if (!open(i)) continue;
     ++referenced;
     for (std::size_t n = 0; n < graph->k; ++n) {
       const std::uint32_t j = graph->neighbours[i * graph->k + n];
-      if (piece[j] != MeshPieces::kNoPiece && piece[j] != piece[i] && (p[j] - p[i]).squaredNorm() <= reach2) {
+      if (open(j) && piece[j] != piece[i] && (p[j] - p[i]).squaredNorm() <= reach2 &&
+          normals[i].dot(normals[j]) >= kSameFacingCosine * normals[i].norm() * normals[j].norm()) {
         ++overlapping;
         break;
       }

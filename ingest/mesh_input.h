@@ -15,15 +15,20 @@ namespace apo::mesh_input {
 // many median edge lengths of it: two scans of the same surface, registered,
 // lie within a few sample spacings of each other.
 inline constexpr double kOverlapEdgeLengths = 3.0;
-// The mesh is a set of scans when at least this fraction of its vertices
-// overlap another piece (a mesh of separate parts only touches at seams),
-// and it has at least kMinReconstructionPoints of them (core/surface_limits.h).
+// The mesh is a set of scans when at least this fraction of its open
+// pieces' vertices overlap another open piece, facing the same way (two
+// scans of one surface agree on its normal; parts of a model meeting at a
+// seam do not), and it has at least kMinReconstructionPoints of them
+// (core/surface_limits.h). Closed pieces never count: range scans are open
+// sheets.
 inline constexpr double kScansOverlapFraction = 0.10;
+// "Facing the same way": vertex normals within about 60 degrees.
+inline constexpr double kSameFacingCosine = 0.5;
 
 struct Evidence {
   std::uint64_t pieces = 0;           // triangles connected through shared vertices
   double boundaryEdgeFraction = 0.0;  // edges with one triangle, of all edges
-  double overlapFraction = 0.0;       // of the vertices in triangles: within kOverlapEdgeLengths of another piece
+  double overlapFraction = 0.0;       // of the open pieces' vertices: within kOverlapEdgeLengths of another open piece
   double medianEdgeLength = 0.0;
   bool looksLikeScans = false;
 };

@@ -118,6 +118,31 @@ TEST(MeshInput, AMeshTooSmallToReconstructStaysASurface) {
   EXPECT_TRUE(enough.looksLikeScans);
 }
 
+// Parts of a model are not scans: closed parts however close (bones.off's
+// 26 bones touch), and open sheets that lie close but face apart
+// (horizons.off's two stacked sheets, the two faces of a thin plate).
+TEST(MeshInput, ClosedPartsAndSheetsFacingApartStayASurface) {
+  Scan nested = test::makeIcosphere(4);
+  const Scan other = test::makeIcosphere(4);
+  const auto base = static_cast<std::uint32_t>(nested.points.size());
+  for (const Vec3f& p : other.points.positions) nested.points.positions.push_back(1.01f * p + Vec3f(0.02f, 0, 0));
+  for (const Triangle& t : other.triangles) nested.triangles.push_back({t[0] + base, t[1] + base, t[2] + base});
+  const auto closed = mesh_input::judge(nested).value();
+  EXPECT_EQ(closed.pieces, 2u);
+  EXPECT_EQ(closed.overlapFraction, 0.0);
+  EXPECT_FALSE(closed.looksLikeScans);
+
+  Scan plate = twoOverlappingSheets(20);
+  for (std::size_t t = plate.triangles.size() / 2; t < plate.triangles.size(); ++t)
+    std::swap(plate.triangles[t][1], plate.triangles[t][2]);  // the second sheet faces down
+  const auto apart = mesh_input::judge(plate).value();
+  EXPECT_EQ(apart.overlapFraction, 0.0);
+  EXPECT_FALSE(apart.looksLikeScans);
+  const auto together = mesh_input::judge(twoOverlappingSheets(20)).value();
+  EXPECT_EQ(together.overlapFraction, 1.0);
+  EXPECT_TRUE(together.looksLikeScans);
+}
+
 TEST(MeshInput, TheDecisionCanBeForcedEitherWay) {
   IngestOptions surface;
   surface.meshInput = MeshInput::Surface;
