@@ -1,6 +1,7 @@
 // `apo bake` and `apo lookup` through the binary: outputs, repeatability
 // across thread counts, and the bad-input cases with their exit codes.
 #include "bake/bake.h"
+#include "format/format.h"
 #include "ingest/ingest.h"
 #include "tests/bake/bumpy_sphere.h"
 #include "tests/test_support.h"
@@ -89,6 +90,49 @@ TEST(LookupCommand, GivesTheBakedNormalPerPointAndZeroOutside) {
   Vec3f outside;
   normals >> outside.x() >> outside.y() >> outside.z();
   EXPECT_EQ(outside, Vec3f::Zero());
+}
+
+// --filter: the filtered lookup the report and the accuracy figures use,
+// exactly (as text to 9 significant digits), so outside tools can check them.
+TEST(LookupCommand, FilterGivesTheFilteredLookupOfTheReport) {
+  const Inputs in;
+  const fs::path out = in.dir / "out";
+  ASSERT_EQ(apo(bakeArguments(in, out)).exitCode, 0);
+  std::vector<Vec3f> points;
+  std::string xyz;
+  for (const Vec3f& d : test::fibonacciSpherePoints(200)) {
+    points.push_back(0.99f * d);
+    xyz += fmt::format("{:.9g} {:.9g} {:.9g}\n", points.back().x(), points.back().y(), points.back().z());
+  }
+  test::writeBytes(in.dir / "points.xyz", xyz);
+  const auto texture = readApoFile(out / "scan.apo");
+  ASSERT_TRUE(texture.ok());
+  for (const bool filtered : {true, false}) {
+    const fs::path normalsPath = in.dir / (filtered ? "filtered.xyz" : "plain.xyz");
+    const auto result = apo(fmt::format("lookup '{}' '{}' -o '{}' {}", (out / "scan.apo").string(),
+                                        (in.dir / "points.xyz").string(), normalsPath.string(), filtered ? "--filter" : ""));
+    ASSERT_EQ(result.exitCode, 0) << result.output;
+    std::ifstream normals(normalsPath);
+    std::size_t differing = 0;
+    for (const Vec3f& p : points) {
+      Vec3f n;
+      normals >> n.x() >> n.y() >> n.z();
+      const Vec3f unit = texture->transform.toUnit(p);
+      const Lookup expected = lookupTextureFiltered(*texture, unit);
+      ASSERT_TRUE(expected.found);
+      if (filtered) {
+        EXPECT_LT((n - expected.normal).norm(), 1e-6f) << p.transpose();
+      } else {
+        EXPECT_LT((n - lookupTexture(*texture, unit).normal).norm(), 1e-6f) << p.transpose();
+        differing += (n - expected.normal).norm() > 1e-3f;
+      }
+    }
+    if (!filtered) EXPECT_GT(differing, points.size() / 2);  // the two walks do differ
+  }
+  const auto both = apo(fmt::format("lookup '{}' '{}' -o '{}' --filter --depth 3", (out / "scan.apo").string(),
+                                    (in.dir / "points.xyz").string(), (in.dir / "x.xyz").string()));
+  EXPECT_EQ(both.exitCode, 1);
+  EXPECT_THAT(both.output, HasSubstr("--depth"));
 }
 
 TEST(BakeCommand, BadInputsGiveClearErrors) {
