@@ -28,7 +28,10 @@ Status validateBakeOptions(const BakeOptions& o) {
     return usageError("--coarse-depth must be in [0, {}], got {}", kDeepestCoarseDepth, o.coarseDepth);
   if (o.maxDepth < o.coarseDepth || o.maxDepth > kDeepestDepth)
     return usageError("--max-depth must be in [--coarse-depth ({}), {}], got {}", o.coarseDepth, kDeepestDepth, o.maxDepth);
-  if (!(o.error > 0.0) || !std::isfinite(o.error)) return usageError("--error must be positive, got {}", o.error);
+  if (!(o.error >= 0.0) || !std::isfinite(o.error))
+    return usageError("--error must be positive (or 0: no threshold), got {}", o.error);
+  if (o.budget == 0 && o.error == 0.0)
+    return usageError("--budget 0 (no cap) needs an --error threshold, or the octree would grow to --max-depth everywhere");
   if (!(o.maxDistance > 0.0) || !std::isfinite(o.maxDistance))
     return usageError("--max-distance must be positive, got {}", o.maxDistance);
   if (o.samples < 1 || o.samples > kMostSamples)
@@ -85,9 +88,22 @@ octree::CoarseMesh coarseInUnitCube(const Scan& coarse, const UnitCubeTransform&
 // of M farther from m than a cell's width would never be seen by the error
 // metric (the limitation its section 6 notes); filed where they project onto
 // m, they are counted in the cells whose texels will show them.
-std::vector<Vec3f> projectOntoCoarse(const std::vector<Vec3f>& centres, const std::vector<Vec3f>& normals,
-                                     const RayCaster& coarse, float reach) {
-  std::vector<Vec3f> projected(centres.size());
+struct Projection {
+  std::vector<Vec3f> positions;
+  std::vector<Vec3f> coarseNormals;  // m's interpolated normal there; zero where the line misses m
+};
+
+Vec3f coarseNormalAt(const Scan& coarse, const std::vector<Vec3f>& normals, const RayHit& hit) {
+  const Triangle& t = coarse.triangles[hit.primitive];
+  const Vec3f n = (1.0f - hit.u - hit.v) * normals[t[0]] + hit.u * normals[t[1]] + hit.v * normals[t[2]];
+  const float length = n.norm();
+  return length > 0.0f ? Vec3f(n / length) : Vec3f(Vec3f::Zero());
+}
+
+Projection projectOntoCoarse(const std::vector<Vec3f>& centres, const std::vector<Vec3f>& normals,
+                             const CoarseSurface& coarse, const std::vector<Vec3f>& coarseNormals, float reach) {
+  Projection projection{std::vector<Vec3f>(centres.size()), std::vector<Vec3f>(centres.size(), Vec3f::Zero())};
+  std::vector<Vec3f>& projected = projection.positions;
   constexpr std::size_t kChunk = 8192;
   tbb::parallel_for(std::size_t{0}, (centres.size() + kChunk - 1) / kChunk, [&](std::size_t chunk) {
     const std::size_t begin = chunk * kChunk, end = std::min(centres.size(), begin + kChunk);
@@ -101,7 +117,7 @@ std::vector<Vec3f> projectOntoCoarse(const std::vector<Vec3f>& centres, const st
         rays.push_back(ray);
       }
     std::vector<RayHit> hits;
-    coarse.intersect(rays, hits);
+    coarse.caster->intersect(rays, hits);
     for (std::size_t i = begin; i < end; ++i) {
       const RayHit& forward = hits[2 * (i - begin)];
       const RayHit& backward = hits[2 * (i - begin) + 1];
@@ -112,14 +128,16 @@ std::vector<Vec3f> projectOntoCoarse(const std::vector<Vec3f>& centres, const st
       const bool useForward = forward.hit() && (!backward.hit() || forward.t <= backward.t);
       const RayHit& hit = useForward ? forward : backward;
       projected[i] = centres[i] + (useForward ? hit.t : -hit.t) * normals[i];
+      projection.coarseNormals[i] = coarseNormalAt(*coarse.mesh, coarseNormals, hit);
     }
   });
-  return projected;
+  return projection;
 }
 
 // M for the error metric (octree_build.h): in unit-cube coordinates, each
 // triangle shifted and each point moved to where it projects onto m.
-octree::DetailPrimitives detailForErrorMetric(const DetailSurface& surface, const RayCaster& coarseCaster, float reach,
+octree::DetailPrimitives detailForErrorMetric(const DetailSurface& surface, const CoarseSurface& coarse,
+                                              const std::vector<Vec3f>& coarseNormals, float reach,
                                               const UnitCubeTransform& transform) {
   const Scan& M = *surface.detail;
   octree::DetailPrimitives detail;
@@ -135,7 +153,9 @@ octree::DetailPrimitives detailForErrorMetric(const DetailSurface& surface, cons
       centres.push_back((a + b + c) / 3.0f);
       normals.push_back(area > 0.0f ? Vec3f(areaNormal / area) : Vec3f(Vec3f::Zero()));
     }
-    const std::vector<Vec3f> projected = projectOntoCoarse(centres, normals, coarseCaster, reach);
+    Projection projection = projectOntoCoarse(centres, normals, coarse, coarseNormals, reach);
+    const std::vector<Vec3f>& projected = projection.positions;
+    detail.coarseNormals = std::move(projection.coarseNormals);
     detail.triangles = M.triangles;
     for (const Vec3f& p : M.points.positions) detail.positions.push_back(transform.toUnit(p));
     detail.shifts.reserve(M.triangles.size());
@@ -148,13 +168,37 @@ octree::DetailPrimitives detailForErrorMetric(const DetailSurface& surface, cons
   }
   detail.normals = M.points.normals;
   detail.weights = surface.pointAreas.empty() ? std::vector<float>(M.points.size(), 1.0f) : surface.pointAreas;
-  for (const Vec3f& p : projectOntoCoarse(M.points.positions, detail.normals, coarseCaster, reach))
-    detail.positions.push_back(transform.toUnit(p));
+  Projection projection = projectOntoCoarse(M.points.positions, detail.normals, coarse, coarseNormals, reach);
+  for (const Vec3f& p : projection.positions) detail.positions.push_back(transform.toUnit(p));
+  detail.coarseNormals = std::move(projection.coarseNormals);
   const double total = std::accumulate(detail.weights.begin(), detail.weights.end(), 0.0);
   const double mean = total / static_cast<double>(std::max<std::size_t>(1, detail.weights.size()));
   if (mean > 0.0)
     for (float& w : detail.weights) w = static_cast<float>(w / mean);
   return detail;
+}
+
+// The most texels whose .apo file fits `budget` bytes (0: no cap).
+std::uint64_t budgetTexels(std::uint64_t budget, bool withOrigin) {
+  if (budget == 0) return 0;
+  std::uint64_t fits = 0, over = std::uint64_t{1} << 32;  // apoFileBytes grows with the texels
+  while (over - fits > 1) {
+    const std::uint64_t middle = fits + (over - fits) / 2;
+    (apoFileBytes(middle, withOrigin) <= budget ? fits : over) = middle;
+  }
+  return std::max<std::uint64_t>(fits, 1);
+}
+
+RefinementReport refinementReport(const octree::RefinementOutcome& outcome, const BakeOptions& options) {
+  RefinementReport report;
+  report.budgetBytes = options.budget;
+  report.errorThreshold = options.error;
+  report.stoppedBy = outcome.stoppedBy;
+  report.l21 = outcome.error;
+  report.rmsDegrees = outcome.rmsDegrees();
+  report.leavesWorseThanCoarse = outcome.leavesWorseThanCoarse;
+  report.leavesAtMaxDepth = outcome.leavesAtMaxDepth;
+  return report;
 }
 
 void countNodes(const Octree& octree, BakeReport& report) {
@@ -191,14 +235,25 @@ Result<Bake> bakeWith(const DetailSurface& detail, const CoarseSurface& coarseSu
   const std::vector<Vec3f> coarseNormals =
       coarse.points.normals.size() == coarse.points.size() ? coarse.points.normals : areaWeightedVertexNormals(coarse);
   const float reach = static_cast<float>(options.maxDistance * box.diagonal());
+  const bool withOrigin = coarse.origin != std::array<double, 3>{};  // the .apo version the budget is counted in
   octree::BuiltOctree built;
   {
-    const octree::DetailPrimitives primitives = detailForErrorMetric(detail, *coarseSurface.caster, reach, transform);
+    const octree::DetailPrimitives primitives =
+        detailForErrorMetric(detail, coarseSurface, coarseNormals, reach, transform);
     report.seconds.setup += phase.seconds();
     reportProgress(onProgress, kBuildStart);
     phase = Stopwatch();
-    built = octree::buildOctree(coarseUnit, primitives, {options.coarseDepth, options.maxDepth, options.error});
+    const int completeDepth = options.completeDepth < 0 ? options.coarseDepth : options.completeDepth;
+    built = octree::buildOctree(coarseUnit, primitives,
+                                {options.coarseDepth, options.maxDepth, options.error,
+                                 budgetTexels(options.budget, withOrigin), completeDepth});
   }
+  if (options.budget > 0 && built.refinement.texels > budgetTexels(options.budget, withOrigin))
+    return usageError("--budget {} bytes is below the {} bytes of the octree's complete levels (--coarse-depth {}): raise "
+                      "--budget or lower --coarse-depth",
+                      options.budget, apoFileBytes(built.refinement.texels, withOrigin),
+                      options.coarseDepth);
+  report.refinement = refinementReport(built.refinement, options);
   built.octree.transform = transform;
   report.seconds.build = phase.seconds();
   spdlog::info("bake: octree of {} nodes built in {:.2f} s", built.octree.nodes.size(), report.seconds.build);

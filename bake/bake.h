@@ -34,7 +34,11 @@ UnitCubeTransform unitCubeAround(const Aabb& box);
 struct BakeOptions {
   int coarseDepth = 5;   // the initial octree is complete to this depth (around m)
   int maxDepth = 13;
-  double error = 0.05;   // L2,1 threshold, in units of M's mean primitive area (docs/bake.md)
+  // The texture's file may take this many bytes (0: no cap); the octree is
+  // refined globally until they are spent or no split helps (docs/bake.md).
+  // The default is a 1024 x 1024 RGB normal map's bytes.
+  std::uint64_t budget = std::uint64_t{3} << 20;
+  double error = 0.0;    // > 0: the paper's L2,1 threshold too, in units of M's mean primitive area
   // Rays reach max(maxDistance x m's bbox diagonal, the cell's diagonal).
   double maxDistance = 0.01;
   int samples = 1;           // ray origins per (leaf, triangle of m): 1, the paper's closest point to the centre; K > 1 stratified
@@ -46,11 +50,22 @@ struct BakePhaseSeconds {
   double setup = 0, build = 0, sample = 0, encode = 0;
 };
 
+// How the refinement went (docs/bake.md, "Refinement").
+struct RefinementReport {
+  std::uint64_t budgetBytes = 0;   // 0: none
+  double errorThreshold = 0.0;     // 0: none
+  std::string stoppedBy;           // "budget", "error" or "converged"
+  double l21 = 0.0;                // sum over the leaves
+  double rmsDegrees = 0.0;         // M's normals about their leaf's mean
+  std::uint64_t leavesWorseThanCoarse = 0, leavesAtMaxDepth = 0;
+};
+
 struct BakeReport {
   std::string detailKind;  // "mesh" or "points"
   std::uint64_t detailPrimitives = 0, coarseTriangles = 0;
   std::vector<std::uint64_t> nodesPerDepth;
   std::uint64_t leaves = 0, internalNodes = 0;
+  RefinementReport refinement;
   std::uint64_t rays = 0, hits = 0, fallbacks = 0;  // fallbacks: samples taken by the closest point
   std::uint32_t textureWidth = 0, textureHeight = 0;
   std::uint64_t textureBytes = 0;
@@ -96,6 +111,6 @@ Status validateBakeInputs(const Scan& detail, const Scan& coarse);
 Result<Bake> bakeWith(const DetailSurface& detail, const CoarseSurface& coarse, const BakeOptions& options,
                       const ProgressCallback& onProgress = {});
 
-std::string bakeReportJson(const BakeReport& report);  // bake.json, format_version 1
+std::string bakeReportJson(const BakeReport& report);  // bake.json, format_version 2
 
 }  // namespace apo

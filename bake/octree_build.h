@@ -6,6 +6,7 @@
 
 #include <array>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 namespace apo::octree {
@@ -45,6 +46,10 @@ struct DetailPrimitives {
   double areaScale = 1.0;            // triangles
   std::vector<Vec3f> normals;        // per point
   std::vector<float> weights;        // per point
+  // Per primitive: m's interpolated normal where the primitive projects onto
+  // m (zero where its line misses m); empty when m's normals are not known.
+  // The refinement compares the cell's mean normal with it (never worse than m).
+  std::vector<Vec3f> coarseNormals;
 
   std::size_t size() const { return triangles.empty() ? positions.size() : triangles.size(); }
   std::array<Vec3f, 3> corners(std::uint32_t t) const {
@@ -64,9 +69,34 @@ struct CoarseMesh {
   std::vector<Triangle> triangles;
 };
 
+// How the refinement stops (docs/bake.md, "Refinement"): a leaf splits next
+// when its split lowers the total L2,1 most per texel added (leaves farther
+// from M than m's own normals first), until the texels reach `budgetTexels`
+// or no split helps (every leaf within kNegligibleDegrees of M or at the
+// maximum depth). With `error`, a leaf whose L2,1 is at most that never
+// splits (the paper's rule; with no budget, its tree exactly).
 struct BuildSettings {
   int coarseDepth = 5, maxDepth = 13;
-  double error = 0.05;
+  double error = 0.0;                // > 0: the paper's threshold, a leaf whose L2,1 is at most this stays a leaf
+  std::uint64_t budgetTexels = 0;    // > 0: the texels the encoded texture may use (grid included)
+  int completeDepth = 5;             // the encoding's completion depth: nodes above it take no texel
+};
+
+// A leaf whose normals deviate from their mean by less than this (root mean
+// square) is as good as M for any renderer: oct24 stores a normal within
+// 0.04 degrees, and a split would spend texels on nothing visible.
+inline constexpr double kNegligibleDegrees = 0.1;
+
+// What stopped the refinement and where it left the error.
+struct RefinementOutcome {
+  std::string stoppedBy;             // "budget", "error" (the threshold), "converged" (no split helps)
+  std::uint64_t texels = 0;          // the texture's used texels, grid included
+  double error = 0.0;                // sum over leaves of their L2,1 (units of M's mean area)
+  double area = 0.0;                 // M's area in the leaves, same units
+  std::uint64_t leavesWorseThanCoarse = 0;  // leaves whose mean normal is farther from M than m's normals
+  std::uint64_t leavesAtMaxDepth = 0;
+  // Root mean square deviation of M's normals from their leaf's mean, in degrees.
+  double rmsDegrees() const;
 };
 
 // The octree (normals and weights still zero) and, for each node, the
@@ -76,6 +106,7 @@ struct BuiltOctree {
   Octree octree;
   std::vector<std::uint64_t> leafTriangleBegin;
   std::vector<std::uint32_t> leafTriangles;
+  RefinementOutcome refinement;
 };
 
 // L2,1 of the primitives in a cell (paper 3.1, Cohen-Steiner's integral):
@@ -84,10 +115,12 @@ struct BuiltOctree {
 // area; for points, the sum of w_i |n_i - n_C|^2.
 double normalVariation(const DetailPrimitives& detail, const std::vector<std::uint32_t>& primitives, const Cell& cell);
 
-// Complete to settings.coarseDepth around m, then refined while the L2,1 of
-// a leaf exceeds settings.error, down to settings.maxDepth; only children
-// that intersect m are kept. Parallel over the coarse cells; the result does
-// not depend on the thread count.
+// Complete to settings.coarseDepth around m, then refined globally as
+// BuildSettings says, down to settings.maxDepth; only children that
+// intersect m are kept. Splits are chosen in rounds and evaluated in
+// parallel; the result does not depend on the thread count. When the coarse
+// levels alone exceed the budget, the tree stops there with
+// refinement.texels above settings.budgetTexels.
 BuiltOctree buildOctree(const CoarseMesh& coarse, const DetailPrimitives& detail, const BuildSettings& settings);
 
 }  // namespace apo::octree

@@ -1,4 +1,4 @@
-// bake.json (format_version 1, docs/bake.md).
+// bake.json (format_version 2, docs/bake.md).
 #include "bake/bake.h"
 
 #include <nlohmann/json.hpp>
@@ -7,10 +7,18 @@ namespace apo {
 
 std::string bakeReportJson(const BakeReport& r) {
   nlohmann::ordered_json json;
-  json["format_version"] = 1;
+  json["format_version"] = 2;
   json["detail"] = {{"kind", r.detailKind}, {"primitives", r.detailPrimitives}};
   json["coarse_triangles"] = r.coarseTriangles;
   json["nodes"] = {{"per_depth", r.nodesPerDepth}, {"leaves", r.leaves}, {"internal", r.internalNodes}};
+  const RefinementReport& f = r.refinement;
+  json["refinement"] = {{"budget_bytes", f.budgetBytes},
+                        {"error_threshold", f.errorThreshold},
+                        {"stopped_by", f.stoppedBy},
+                        {"l21", f.l21},
+                        {"rms_degrees", f.rmsDegrees},
+                        {"leaves_worse_than_m", f.leavesWorseThanCoarse},
+                        {"leaves_at_max_depth", f.leavesAtMaxDepth}};
   json["sampling"] = {{"rays", r.rays}, {"samples_hit", r.hits}, {"samples_fallback", r.fallbacks}};
   json["texture"] = {{"width", r.textureWidth}, {"height", r.textureHeight}, {"bytes", r.textureBytes}};
   json["seconds"] = {{"setup", r.seconds.setup},

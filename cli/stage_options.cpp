@@ -123,7 +123,14 @@ void addBakeOptions(CLI::App& app, BakeArguments& arguments) {
   BakeOptions& o = arguments.options;
   app.add_option("--coarse-depth", o.coarseDepth, "Depth of the initial complete octree around m")->capture_default_str();
   app.add_option("--max-depth", o.maxDepth, "Deepest refinement")->capture_default_str();
-  app.add_option("--error", o.error, "L2,1 threshold for refining a cell (paper: 0.3, 0.1, 0.05)")->capture_default_str();
+  app.add_option("--budget", o.budget,
+                 "Bytes the .apo file may take (3MiB, 500kB, ...; 0: no cap): the octree is refined where a split "
+                 "removes the most error per byte until they are spent")
+      ->transform(CLI::AsSizeValue(true))
+      ->default_str("3MiB");
+  app.add_option("--error", o.error,
+                 "L2,1 threshold, the paper's stopping rule (paper: 0.3, 0.1, 0.05; 0: none, the budget alone)")
+      ->capture_default_str();
   app.add_option("--max-distance", o.maxDistance,
                  "Ray reach as a fraction of m's bounding-box diagonal (at least the cell's diagonal)")
       ->capture_default_str();

@@ -413,6 +413,12 @@ Result<ApoTexture> readTexture(std::istream& in, std::uint64_t fileSize) {
 
 }  // namespace
 
+std::uint64_t apoFileBytes(std::uint64_t usedTexels, bool withOrigin) {
+  const std::uint32_t width = texel::textureWidthFor(usedTexels);
+  return headerBytesOf(withOrigin ? kFormatVersionWithOrigin : kFormatVersion) +
+         4 * std::uint64_t{width} * texel::rowsFor(usedTexels, width);
+}
+
 Status writeApoFile(const fs::path& path, const ApoTexture& texture) {
   const Header header = headerOf(texture);
   // Never write a file the reader would refuse.

@@ -129,6 +129,10 @@ Result<ApoTexture> parseApoFile(std::string_view bytes);
 // texel's channel and whether the texel is in the grid, the nodes or the
 // padding (from the header, when it parses). For reports of differing files.
 std::string describeApoFileByte(std::string_view bytes, std::uint64_t offset);
+// Bytes of the .apo file of a texture using `usedTexels` texels (the width
+// the encoder picks, the last row padded, the header of the version the
+// writer picks: with an origin or not). What a byte budget is counted in.
+std::uint64_t apoFileBytes(std::uint64_t usedTexels, bool withOrigin);
 // The texture as an RGBA PNG (the paper's figure 5).
 Status writeApoPng(const std::filesystem::path& path, const ApoTexture& texture);
 

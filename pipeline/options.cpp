@@ -42,7 +42,8 @@ Json simplifyJson(const SimplifyOptions& o) {
 
 Json bakeJson(const BakeOptions& o) {
   return {{"coarse-depth", o.coarseDepth},   {"max-depth", o.maxDepth},
-          {"error", o.error},                {"max-distance", o.maxDistance},
+          {"budget", o.budget},              {"error", o.error},
+          {"max-distance", o.maxDistance},
           {"samples", o.samples},            {"complete-depth", o.completeDepth},
           {"normal-encoding", normalEncodingName(o.encoding)}};
 }

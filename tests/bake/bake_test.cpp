@@ -155,6 +155,37 @@ TEST_F(BumpySphereBake, OnTheBumpsTheApoBeatsMsOwnNormals) {
   EXPECT_LT(apoError, bareError / 3.0) << "APO " << apoError << " deg, bare m " << bareError << " deg";
 }
 
+TEST_F(BumpySphereBake, AtTheBytesOfThePapersThresholdTheBudgetsApoIsCloserToM) {
+  // The same bytes spent by the global order (the default) and by the
+  // paper's threshold: the filtered lookup (what the renders show) at points
+  // of m against the analytic normal of M.
+  BakeOptions paper = testOptions();
+  paper.budget = 0;
+  paper.error = 0.05;
+  auto byThreshold = bakeApo(*detail_, *coarse_, paper);
+  ASSERT_TRUE(byThreshold.ok()) << byThreshold.error().message;
+  BakeOptions budgeted = testOptions();
+  budgeted.budget = apoFileBytes(byThreshold->texture.usedTexels(), false);
+  auto byBudget = bakeApo(*detail_, *coarse_, budgeted);
+  ASSERT_TRUE(byBudget.ok()) << byBudget.error().message;
+  EXPECT_EQ(byBudget->report.refinement.stoppedBy, "budget");
+  EXPECT_LE(apoFileBytes(byBudget->texture.usedTexels(), false), budgeted.budget);
+  const auto meanError = [&](const ApoTexture& texture) {
+    double sum = 0.0;
+    int count = 0;
+    for (const Vec3f& p : pointsOnMesh(*coarse_, 40000, 5)) {
+      const Lookup found = lookupTextureFiltered(texture, texture.transform.toUnit(p));
+      if (!found.found) continue;
+      sum += degreesBetween(found.normal, shape_->normal(p));
+      ++count;
+    }
+    EXPECT_GT(count, 39000);
+    return sum / count;
+  };
+  const double threshold = meanError(byThreshold->texture), budget = meanError(byBudget->texture);
+  EXPECT_LT(budget, threshold) << "at " << budgeted.budget << " bytes";
+}
+
 TEST_F(BumpySphereBake, TextureLookupMatchesTheOctreeForAMillionPointsNearM) {
   // The walk over the encoded texture (what the shader does) against the walk
   // over the in-memory octree: same node depth and same normal, up to the

@@ -237,11 +237,98 @@ TEST(BuildOctree, RefinesWhereTheNormalsVaryAndOnlyThere) {
   EXPECT_EQ(outsideDeepest, 0);
 }
 
+
+// Texels the encoding takes (grid of the coarse depth, then 1 per leaf and 2
+// per internal node below it), counted from the tree.
+std::uint64_t texelsOfTree(const Octree& octree, int completeDepth) {
+  std::uint64_t texels = std::uint64_t{1} << (3 * completeDepth);
+  for (const OctreeNode& node : octree.nodes)
+    if (node.depth >= completeDepth) texels += node.isLeaf() ? 1 : 2;
+  return texels;
+}
+
+// The total L2,1 of the leaves, each recomputed from all of M's triangles
+// that overlap the leaf's cell (brute force, not the build's lists).
+double totalLeafError(const SphereCase& c, const Octree& octree) {
+  std::vector<Cell> cells(octree.nodes.size());
+  double total = 0.0;
+  for (std::uint32_t n = 0; n < octree.nodes.size(); ++n) {
+    const OctreeNode& node = octree.nodes[n];
+    std::uint32_t child = node.firstChild;
+    for (int k = 0; k < 8; ++k)
+      if (node.childMask & (1u << k)) cells[child++] = cells[n].child(k);
+    if (!node.isLeaf()) continue;
+    std::vector<std::uint32_t> overlapping;
+    for (std::uint32_t t = 0; t < c.detail.triangles.size(); ++t) {
+      const auto corners = c.detail.corners(t);
+      if (triangleOverlapsBox(corners[0], corners[1], corners[2], cells[n])) overlapping.push_back(t);
+    }
+    total += normalVariation(c.detail, overlapping, cells[n]);
+  }
+  return total;
+}
+
+BuildSettings budgetSettings(std::uint64_t texels) {
+  BuildSettings settings{3, 7, 0.0, texels, 3};
+  return settings;
+}
+
+TEST(BuildOctreeWithABudget, NeverSpendsMoreTexelsThanTheBudgetAndMoreBuysLessError) {
+  const SphereCase c = bumpySphereCase();
+  double previous = std::numeric_limits<double>::infinity();
+  for (const std::uint64_t budget : {2000u, 8000u, 32000u}) {
+    const BuiltOctree built = buildOctree(c.coarse, c.detail, budgetSettings(budget));
+    const std::uint64_t texels = texelsOfTree(built.octree, 3);
+    EXPECT_EQ(built.refinement.texels, texels) << "budget " << budget;
+    EXPECT_LE(texels, budget);
+    EXPECT_GT(texels, budget - 9) << "stopped with room for another split";  // a split adds at most 9
+    EXPECT_EQ(built.refinement.stoppedBy, "budget");
+    const double error = totalLeafError(c, built.octree);
+    EXPECT_NEAR(built.refinement.error, error, 1e-6 * error) << "the reported error is the leaves' L2,1";
+    EXPECT_LT(error, previous) << "budget " << budget;
+    previous = error;
+  }
+}
+
+TEST(BuildOctreeWithABudget, StopsWhereNoSplitHelps) {
+  // M = the coarse sphere's own triangles with their own flat normals: a
+  // cell inside one face has no error and never splits; only cells across
+  // edges do (down to the maximum depth), and the budget is not needed.
+  SphereCase c = bumpySphereCase();
+  c.detail.positions = c.coarse.positions;
+  c.detail.triangles = c.coarse.triangles;
+  c.detail.cornerNormals.clear();
+  std::vector<Triangle> flat;
+  for (const Triangle& t : c.coarse.triangles) {
+    const Vec3f& a = c.detail.positions[t[0]];
+    const Vec3f normal = (c.detail.positions[t[1]] - a).cross(c.detail.positions[t[2]] - a).normalized();
+    const auto base = static_cast<std::uint32_t>(c.detail.cornerNormals.size());
+    for (int k = 0; k < 3; ++k) c.detail.cornerNormals.push_back(normal);
+    flat.push_back({base, base + 1, base + 2});
+  }
+  std::vector<Vec3f> positions;
+  for (const Triangle& t : c.coarse.triangles)
+    for (int k = 0; k < 3; ++k) positions.push_back(c.coarse.positions[t[k]]);
+  c.detail.positions = positions;
+  c.detail.triangles = flat;
+  const BuiltOctree built = buildOctree(c.coarse, c.detail, budgetSettings(1u << 20));
+  EXPECT_EQ(built.refinement.stoppedBy, "converged");
+  EXPECT_LT(built.refinement.texels, 1u << 18);
+  std::uint64_t leaves = 0, deepest = 0;
+  for (const OctreeNode& node : built.octree.nodes) {
+    leaves += node.isLeaf() ? 1 : 0;
+    deepest += node.isLeaf() && node.depth == 7 ? 1 : 0;
+  }
+  EXPECT_EQ(built.refinement.leavesAtMaxDepth, deepest);
+  EXPECT_GT(deepest, 0u);       // along the edges
+  EXPECT_LT(deepest, leaves);   // inside the faces, cells stay larger
+}
+
 TEST(BuildOctree, SameTreeWithOneOrTwoThreads) {
   const SphereCase c = bumpySphereCase();
   const auto build = [&](int threads) {
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
-    return buildOctree(c.coarse, c.detail, {3, 7, 0.05});
+    return buildOctree(c.coarse, c.detail, budgetSettings(20000));
   };
   const BuiltOctree one = build(1), two = build(2);
   ASSERT_EQ(one.octree.nodes.size(), two.octree.nodes.size());

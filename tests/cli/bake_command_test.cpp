@@ -50,7 +50,9 @@ TEST(BakeCommand, WritesTheApoItsPngAndReport) {
   ASSERT_TRUE(texture.ok()) << texture.error().message;
   std::ifstream json(out / "bake.json");
   const auto report = nlohmann::json::parse(json);
-  EXPECT_EQ(report["format_version"], 1);
+  EXPECT_EQ(report["format_version"], 2);
+  EXPECT_EQ(report["refinement"]["budget_bytes"], 3u << 20);  // the default
+  EXPECT_EQ(report["refinement"]["stopped_by"], "converged");  // a small sphere does not need 3 MiB
   EXPECT_EQ(report["texture"]["width"], texture->width);
   EXPECT_EQ(report["nodes"]["leaves"], texture->leafNodes);
   EXPECT_EQ(report["detail"]["kind"], "mesh");

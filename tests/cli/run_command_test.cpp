@@ -67,7 +67,8 @@ TEST(RunCommand, AMeshScanGoesThroughEveryStageIntoOneFolder) {
   EXPECT_EQ(manifest["format_version"], 2);
   EXPECT_EQ(manifest["options"]["simplify"]["faces"], 300);
   EXPECT_EQ(manifest["options"]["render"]["size"], 64);
-  EXPECT_EQ(manifest["options"]["bake"]["error"], 0.05);  // defaults are recorded too
+  EXPECT_EQ(manifest["options"]["bake"]["budget"], 3u << 20);  // defaults are recorded too
+  EXPECT_EQ(manifest["options"]["bake"]["error"], 0.0);
   EXPECT_EQ(manifest["options"]["bake"]["normal-encoding"], "oct24");
   EXPECT_EQ(manifest["options"]["reconstruct"]["max-points"], nullptr);  // unset: the method's default
   EXPECT_EQ(manifest["results"]["simplify"]["faces"]["out"], 300);

@@ -42,10 +42,14 @@ SimplifyOptions goldenSimplify() {
   options.targetFaces = 200;
   return options;
 }
+// The paper's threshold with no budget: the tree of format version 1's
+// golden file, unchanged since it was written.
 BakeOptions goldenBake() {
   BakeOptions options;
   options.coarseDepth = 3;
   options.maxDepth = 7;
+  options.budget = 0;
+  options.error = 0.05;
   return options;
 }
 
@@ -170,6 +174,21 @@ TEST_F(Golden, BakeGivesTheGoldenApoAndReport) {
   ASSERT_TRUE(bake.ok()) << bake.error().message;
   expectGolden(apoBytes(bake->texture), kCurrent / "scan.apo", apoField);
   expectGolden(bakeJsonWithoutTimings(bake->report), kCurrent / "bake.json", textLine);
+}
+
+// The default refinement (a byte budget, refined globally) with a budget
+// small enough to stop it: the order of splits, pinned.
+TEST_F(Golden, BakeWithABudgetGivesTheGoldenApo) {
+  auto m = readScan(kCurrent / "m.ply");
+  ASSERT_TRUE(m.ok()) << m.error().message;
+  BakeOptions options = goldenBake();
+  options.budget = 6000;
+  options.error = 0.0;
+  auto bake = bakeApo(*input_, *m, options);
+  ASSERT_TRUE(bake.ok()) << bake.error().message;
+  EXPECT_EQ(bake->report.refinement.stoppedBy, "budget");
+  EXPECT_LE(bake->texture.texels.size() + 128, options.budget);
+  expectGolden(apoBytes(bake->texture), kCurrent / "budget.apo", apoField);
 }
 
 // Normals of the v1 golden at fixed world points, as decoded when it was
