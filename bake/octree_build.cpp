@@ -28,22 +28,44 @@ bool separatedOn(const Vec3f& axis, const Vec3f& v0, const Vec3f& v1, const Vec3
   return std::min({p0, p1, p2}) > radius || std::max({p0, p1, p2}) < -radius;
 }
 
+// A convex polygon cut from a triangle by a box: each of the six planes adds
+// at most one corner, so 9 at most. Fixed storage: the error metric clips
+// millions of triangles and would otherwise spend its time allocating.
+struct ClippedPolygon {
+  std::array<Vec3f, 9> corners;
+  int size = 0;
+};
+
 // Keeps the part of `polygon` where sign * (p[axis] - bound) <= 0.
-std::vector<Vec3f> clipAgainstPlane(const std::vector<Vec3f>& polygon, int axis, float bound, float sign) {
-  std::vector<Vec3f> clipped;
-  const std::size_t n = polygon.size();
-  for (std::size_t i = 0; i < n; ++i) {
-    const Vec3f& p = polygon[i];
-    const Vec3f& q = polygon[(i + 1) % n];
+void clipAgainstPlane(const ClippedPolygon& polygon, int axis, float bound, float sign, ClippedPolygon& clipped) {
+  clipped.size = 0;
+  const int n = polygon.size;
+  for (int i = 0; i < n; ++i) {
+    const Vec3f& p = polygon.corners[i];
+    const Vec3f& q = polygon.corners[(i + 1) % n];
     const float dp = sign * (p[axis] - bound), dq = sign * (q[axis] - bound);
-    if (dp <= 0.0f) clipped.push_back(p);
+    if (dp <= 0.0f) clipped.corners[clipped.size++] = p;
     if ((dp < 0.0f && dq > 0.0f) || (dp > 0.0f && dq < 0.0f)) {
       Vec3f crossing = p + (q - p) * (dp / (dp - dq));
       crossing[axis] = bound;  // exactly on the face, whatever the rounding
-      clipped.push_back(crossing);
+      clipped.corners[clipped.size++] = crossing;
     }
   }
-  return clipped;
+}
+
+ClippedPolygon clipToCell(const Vec3f& a, const Vec3f& b, const Vec3f& c, const Cell& cell) {
+  ClippedPolygon polygon, scratch;
+  polygon.corners[0] = a;
+  polygon.corners[1] = b;
+  polygon.corners[2] = c;
+  polygon.size = 3;
+  const Vec3f lower = cell.lower(), upper = cell.upper();
+  for (int axis = 0; axis < 3 && polygon.size > 0; ++axis) {
+    clipAgainstPlane(polygon, axis, upper[axis], 1.0f, scratch);
+    if (scratch.size > 0) clipAgainstPlane(scratch, axis, lower[axis], -1.0f, polygon);
+    else polygon.size = 0;
+  }
+  return polygon;
 }
 
 // ---- Primitive access -----------------------------------------------------
@@ -136,16 +158,16 @@ void addTriangleInCell(const DetailPrimitives& d, std::uint32_t t, const Cell& c
     sums.addTriangle(d.areaScale * triangleArea(c[0], c[1], c[2]), n0, n1, n2, coarse);
     return;
   }
-  const std::vector<Vec3f> piece = clipTriangleToCell(c[0], c[1], c[2], cell);
-  if (piece.size() < 3) return;
-  std::vector<Vec3f> normals;
-  for (const Vec3f& p : piece) {
-    const Eigen::Vector3f w = barycentricsOf(p, c[0], c[1], c[2]);
-    normals.push_back(w[0] * n0 + w[1] * n1 + w[2] * n2);
+  const ClippedPolygon piece = clipToCell(c[0], c[1], c[2], cell);
+  if (piece.size < 3) return;
+  std::array<Vec3f, 9> normals;
+  for (int k = 0; k < piece.size; ++k) {
+    const Eigen::Vector3f w = barycentricsOf(piece.corners[k], c[0], c[1], c[2]);
+    normals[k] = w[0] * n0 + w[1] * n1 + w[2] * n2;
   }
-  for (std::size_t k = 1; k + 1 < piece.size(); ++k)
-    sums.addTriangle(d.areaScale * triangleArea(piece[0], piece[k], piece[k + 1]), normals[0], normals[k],
-                     normals[k + 1], coarse);
+  for (int k = 1; k + 1 < piece.size; ++k)
+    sums.addTriangle(d.areaScale * triangleArea(piece.corners[0], piece.corners[k], piece.corners[k + 1]), normals[0],
+                     normals[k], normals[k + 1], coarse);
 }
 
 // What a leaf costs in error: its L2,1, the same against m's normals, and
@@ -509,13 +531,8 @@ bool triangleOverlapsBox(const Vec3f& a, const Vec3f& b, const Vec3f& c, const C
 }
 
 std::vector<Vec3f> clipTriangleToCell(const Vec3f& a, const Vec3f& b, const Vec3f& c, const Cell& cell) {
-  std::vector<Vec3f> polygon = {a, b, c};
-  const Vec3f lower = cell.lower(), upper = cell.upper();
-  for (int axis = 0; axis < 3 && !polygon.empty(); ++axis) {
-    polygon = clipAgainstPlane(polygon, axis, upper[axis], 1.0f);
-    if (!polygon.empty()) polygon = clipAgainstPlane(polygon, axis, lower[axis], -1.0f);
-  }
-  return polygon;
+  const ClippedPolygon polygon = clipToCell(a, b, c, cell);
+  return {polygon.corners.begin(), polygon.corners.begin() + polygon.size};
 }
 
 double polygonArea(const std::vector<Vec3f>& polygon) {
