@@ -561,6 +561,188 @@ double RefinementOutcome::rmsDegrees() const {
   return area > 0.0 ? std::sqrt(error / area) * 180.0 / std::numbers::pi : 0.0;
 }
 
+namespace {
+
+// Leaves that will not split: m's triangles of each (for the sampling) in one
+// array, and their errors summed as they come.
+class FinishedLeaves {
+ public:
+  FinishedLeaves(int maxDepth) : maxDepth_(maxDepth) {}
+
+  void add(const Leaf& leaf, RefinementOutcome& outcome) {
+    records_.push_back({leaf.node, triangles_.size(), static_cast<std::uint32_t>(leaf.triangles.size())});
+    triangles_.insert(triangles_.end(), leaf.triangles.begin(), leaf.triangles.end());
+    outcome.error += leaf.error.variation;
+    outcome.area += leaf.error.area;
+    outcome.leavesWorseThanCoarse += leaf.error.worseThanCoarse() ? 1 : 0;
+    outcome.leavesAtMaxDepth += leaf.cell.depth >= maxDepth_ ? 1 : 0;
+  }
+
+  // The CSR of m's triangles per node, nodes renumbered by `newNumber`.
+  void layOut(const std::vector<std::uint32_t>& newNumber, BuiltOctree& built) const {
+    std::vector<std::uint32_t> recordOf(newNumber.size(), kNotALeaf);
+    for (std::size_t i = 0; i < records_.size(); ++i) recordOf[newNumber[records_[i].node]] = static_cast<std::uint32_t>(i);
+    built.leafTriangleBegin.assign(newNumber.size() + 1, 0);
+    built.leafTriangles.clear();
+    built.leafTriangles.reserve(triangles_.size());
+    for (std::size_t n = 0; n < newNumber.size(); ++n) {
+      built.leafTriangleBegin[n] = built.leafTriangles.size();
+      if (recordOf[n] == kNotALeaf) continue;
+      const Record& record = records_[recordOf[n]];
+      const auto first = triangles_.begin() + static_cast<std::ptrdiff_t>(record.begin);
+      built.leafTriangles.insert(built.leafTriangles.end(), first, first + record.count);
+    }
+    built.leafTriangleBegin.back() = built.leafTriangles.size();
+  }
+
+ private:
+  struct Record {
+    std::uint32_t node;
+    std::uint64_t begin;
+    std::uint32_t count;
+  };
+  int maxDepth_;
+  std::vector<Record> records_;
+  std::vector<std::uint32_t> triangles_;
+};
+
+// The global refinement (docs/bake.md, "Refinement"). Leaves that may split
+// are queued unevaluated (by an upper bound of their split's value per
+// texel) or evaluated (by the value itself). A leaf reaching the top
+// unevaluated is evaluated and queued again, so only leaves near the top are
+// ever clipped into children (a lazy greedy).
+class GlobalRefinement {
+ public:
+  GlobalRefinement(const CoarseMesh& coarse, const DetailPrimitives& detail, const BuildSettings& settings,
+                   std::vector<OctreeNode>& nodes, RefinementOutcome& outcome)
+      : detail_(detail), settings_(settings), refinement_(coarse, detail, settings), nodes_(nodes), outcome_(outcome),
+        finished_(settings.maxDepth) {}
+
+  // The coarse cells, their errors computed in parallel.
+  void start(std::vector<Leaf> leaves) {
+    tbb::parallel_for(std::size_t{0}, leaves.size(), [&](std::size_t i) {
+      leaves[i].error = errorInCell(detail_, leaves[i].primitives, leaves[i].cell);
+    });
+    for (Leaf& leaf : leaves) file(std::move(leaf));
+  }
+
+  // Splits until the budget is spent or no leaf may split; returns whether
+  // the budget stopped it.
+  bool run() {
+    const bool budgeted = settings_.budgetTexels > 0;
+    // The coarse levels alone may exceed the budget: then nothing splits.
+    bool budgetReached = budgeted && outcome_.texels > settings_.budgetTexels;
+    while (!queue_.empty() && !budgetReached) budgetReached = round(budgeted);
+    for (const QueueEntry& entry : queue_) finished_.add(slots_[entry.candidate].leaf, outcome_);
+    queue_.clear();
+    return budgetReached;
+  }
+
+  const FinishedLeaves& finished() const { return finished_; }
+
+ private:
+  // A round: the top entries; evaluated ones split (while the budget lasts),
+  // unevaluated ones are evaluated together, in parallel. Returns whether
+  // the budget ran out.
+  bool round(bool budgeted) {
+    std::vector<Candidate> toEvaluate;
+    bool budgetReached = false;
+    const std::size_t count = roundSize(queue_.size(), budgeted);
+    for (std::size_t k = 0; k < count && !queue_.empty(); ++k) {
+      std::pop_heap(queue_.begin(), queue_.end(), QueueEntry::after);
+      const QueueEntry entry = queue_.back();
+      queue_.pop_back();
+      Candidate candidate = take(entry.candidate);
+      if (!entry.evaluated) {
+        toEvaluate.push_back(std::move(candidate));
+        continue;
+      }
+      if (budgeted && outcome_.texels + candidate.texels() > settings_.budgetTexels) {
+        // Less than one split's texels (at most 9) are left: stop here.
+        finished_.add(candidate.leaf, outcome_);
+        budgetReached = true;
+        break;
+      }
+      split(std::move(candidate));
+    }
+    tbb::parallel_for(std::size_t{0}, toEvaluate.size(), [&](std::size_t i) {
+      toEvaluate[i] = refinement_.evaluate(std::move(toEvaluate[i].leaf));
+    });
+    for (Candidate& candidate : toEvaluate) {
+      if (Refinement::worthSplitting(candidate))
+        enqueue(std::move(candidate), true);
+      else
+        finished_.add(candidate.leaf, outcome_);
+    }
+    return budgetReached;
+  }
+
+  void split(Candidate candidate) {
+    outcome_.texels += candidate.texels();
+    OctreeNode& parent = nodes_[candidate.leaf.node];
+    parent.firstChild = static_cast<std::uint32_t>(nodes_.size());
+    parent.childMask = candidate.mask;
+    for (Leaf& child : candidate.children) {
+      child.node = static_cast<std::uint32_t>(nodes_.size());
+      OctreeNode node;
+      node.depth = static_cast<std::uint8_t>(child.cell.depth);
+      nodes_.push_back(node);
+      file(std::move(child));
+    }
+  }
+
+  void file(Leaf leaf) {
+    if (!refinement_.mayRefine(leaf)) {
+      finished_.add(leaf, outcome_);
+      return;
+    }
+    Candidate candidate;
+    candidate.leaf = std::move(leaf);
+    enqueue(std::move(candidate), false);
+  }
+
+  void enqueue(Candidate candidate, bool evaluated) {
+    const LeafError& error = candidate.leaf.error;
+    // Unevaluated: a split adds at least 2 texels and is worth at most the
+    // leaf's error and excess, so their half bounds its key, and the first
+    // evaluated entry on top is the best split of all (the greedy order;
+    // rounds of many entries stay close to it). Tighter guesses (the
+    // parent's ratio) evaluated half as many leaves but lost 2-4% of the
+    // accuracy on bunny00.
+    const double key = evaluated ? candidate.valuePerTexel() : (error.variation + error.excessOverCoarse()) / 2.0;
+    queue_.push_back({evaluated, key, candidate.leaf.node, put(std::move(candidate))});
+    std::push_heap(queue_.begin(), queue_.end(), QueueEntry::after);
+  }
+
+  // Candidates live in reused slots: the queue holds only their keys.
+  std::uint32_t put(Candidate candidate) {
+    if (freeSlots_.empty()) {
+      slots_.push_back(std::move(candidate));
+      return static_cast<std::uint32_t>(slots_.size() - 1);
+    }
+    const std::uint32_t slot = freeSlots_.back();
+    freeSlots_.pop_back();
+    slots_[slot] = std::move(candidate);
+    return slot;
+  }
+  Candidate take(std::uint32_t slot) {
+    freeSlots_.push_back(slot);
+    return std::move(slots_[slot]);
+  }
+
+  const DetailPrimitives& detail_;
+  const BuildSettings& settings_;
+  const Refinement refinement_;
+  std::vector<OctreeNode>& nodes_;
+  RefinementOutcome& outcome_;
+  FinishedLeaves finished_;
+  std::deque<Candidate> slots_;  // a deque: growing it moves no candidate
+  std::vector<std::uint32_t> freeSlots_;
+  std::vector<QueueEntry> queue_;  // a heap, first to split on top
+};
+
+}  // namespace
+
 BuiltOctree buildOctree(const CoarseMesh& coarse, const DetailPrimitives& detail, const BuildSettings& settings) {
   const int depth = settings.coarseDepth;
   const Groups coarseCells = groupByKey(binIntoGrid(
@@ -579,129 +761,25 @@ BuiltOctree buildOctree(const CoarseMesh& coarse, const DetailPrimitives& detail
   const std::vector<std::uint32_t> coarseNodes = buildUpperLevels(coarseCells.keys, depth, nodes);
   RefinementOutcome& outcome = built.refinement;
   outcome.texels = texelsOf(nodes, settings.completeDepth);
-  const bool budgeted = settings.budgetTexels > 0;
-  const Refinement refinement(coarse, detail, settings);
 
-  // Leaves that will not split, with m's triangles for the sampling.
-  std::deque<Leaf> finished;
-  // Leaves that may split: unevaluated (queued by an upper bound of their
-  // split's value per texel) or evaluated (queued by the value itself). A
-  // leaf reaching the top unevaluated is evaluated and queued again, so only
-  // leaves near the top are ever evaluated (lazy greedy): each split's
-  // children are clipped once, not the whole last level's.
-  std::deque<Candidate> candidates;  // a deque: growing it moves none
-  std::vector<QueueEntry> queue;     // a heap, first to split on top
-  const auto enqueue = [&](Candidate candidate, bool evaluated) {
-    const LeafError& error = candidate.leaf.error;
-    // Unevaluated: a split adds at least 2 texels and is worth at most the
-    // leaf's error (and excess), so their half bounds its key and the first evaluated
-    // entry on top is the best split of all (the greedy order; rounds of
-    // many entries stay close to it).
-    // Tighter guesses (the parent's ratio) evaluated half as many leaves but
-    // lost 2-4% of the accuracy on bunny00 (docs/benchmarks.md).
-    const double key = evaluated ? candidate.valuePerTexel() : (error.variation + error.excessOverCoarse()) / 2.0;
-    queue.push_back({evaluated, key, candidate.leaf.node,
-                     static_cast<std::uint32_t>(candidates.size())});
-    std::push_heap(queue.begin(), queue.end(), QueueEntry::after);
-    candidates.push_back(std::move(candidate));
-  };
-  const auto file = [&](Leaf leaf) {
-    if (!refinement.mayRefine(leaf)) {
-      finished.push_back(std::move(leaf));
-      return;
-    }
-    Candidate candidate;
-    candidate.leaf = std::move(leaf);
-    enqueue(std::move(candidate), false);
-  };
-
-  {
-    std::vector<Leaf> first(coarseCells.keys.size());
-    for (std::size_t i = 0; i < first.size(); ++i) {
-      const GridKey key = coarseCells.keys[i];
-      first[i].node = coarseNodes[i];
-      first[i].cell = gridCell(key, depth);
-      first[i].triangles = std::move(coarseCells.members[i]);
-      const auto found = std::lower_bound(detailCells.keys.begin(), detailCells.keys.end(), key);
-      if (found != detailCells.keys.end() && *found == key)
-        first[i].primitives = std::move(detailCells.members[static_cast<std::size_t>(found - detailCells.keys.begin())]);
-    }
-    detailCells = Groups{};
-    tbb::parallel_for(std::size_t{0}, first.size(), [&](std::size_t i) {
-      first[i].error = errorInCell(detail, first[i].primitives, first[i].cell);
-    });
-    for (Leaf& leaf : first) file(std::move(leaf));
+  std::vector<Leaf> first(coarseCells.keys.size());
+  for (std::size_t i = 0; i < first.size(); ++i) {
+    const GridKey key = coarseCells.keys[i];
+    first[i].node = coarseNodes[i];
+    first[i].cell = gridCell(key, depth);
+    first[i].triangles = coarseCells.members[i];
+    const auto found = std::lower_bound(detailCells.keys.begin(), detailCells.keys.end(), key);
+    if (found != detailCells.keys.end() && *found == key)
+      first[i].primitives = std::move(detailCells.members[static_cast<std::size_t>(found - detailCells.keys.begin())]);
   }
-
-  // The coarse levels alone may exceed the budget: then nothing splits.
-  bool budgetReached = budgeted && outcome.texels > settings.budgetTexels;
-  while (!queue.empty() && !budgetReached) {
-    // A round: the top entries; evaluated ones split (while the budget
-    // lasts), unevaluated ones are evaluated together, in parallel.
-    std::vector<Candidate> toEvaluate;
-    const std::size_t round = roundSize(queue.size(), budgeted);
-    for (std::size_t k = 0; k < round && !queue.empty(); ++k) {
-      std::pop_heap(queue.begin(), queue.end(), QueueEntry::after);
-      const QueueEntry entry = queue.back();
-      queue.pop_back();
-      // Moved out: filing its children grows `candidates`.
-      Candidate split = std::move(candidates[entry.candidate]);
-      if (!entry.evaluated) {
-        toEvaluate.push_back(std::move(split));
-        continue;
-      }
-      if (budgeted && outcome.texels + split.texels() > settings.budgetTexels) {
-        // Less than one split's texels (at most 9) are left: stop here.
-        budgetReached = true;
-        finished.push_back(std::move(split.leaf));
-        break;
-      }
-      outcome.texels += split.texels();
-      OctreeNode& parent = nodes[split.leaf.node];
-      parent.firstChild = static_cast<std::uint32_t>(nodes.size());
-      parent.childMask = split.mask;
-      for (Leaf& child : split.children) {
-        child.node = static_cast<std::uint32_t>(nodes.size());
-        OctreeNode node;
-        node.depth = static_cast<std::uint8_t>(child.cell.depth);
-        nodes.push_back(node);
-        file(std::move(child));
-      }
-    }
-    tbb::parallel_for(std::size_t{0}, toEvaluate.size(), [&](std::size_t i) {
-      toEvaluate[i] = refinement.evaluate(std::move(toEvaluate[i].leaf));
-    });
-    for (Candidate& candidate : toEvaluate) {
-      if (Refinement::worthSplitting(candidate))
-        enqueue(std::move(candidate), true);
-      else
-        finished.push_back(std::move(candidate.leaf));
-    }
-  }
-  for (const QueueEntry& entry : queue) finished.push_back(std::move(candidates[entry.candidate].leaf));
-  candidates.clear();
+  detailCells = Groups{};
+  GlobalRefinement refinement(coarse, detail, settings, nodes, outcome);
+  refinement.start(std::move(first));
+  const bool budgetReached = refinement.run();
   outcome.stoppedBy = budgetReached ? "budget" : settings.error > 0.0 ? "error" : "converged";
-
   // Breadth-first numbering: the octree does not depend on the order the
   // splits were made in (which follows the last bits of the error metric).
-  const std::vector<std::uint32_t> renumbered = renumberBreadthFirst(nodes);
-  // m's triangles per leaf, in node order.
-  std::vector<std::uint32_t> finishedOf(nodes.size(), kNotALeaf);
-  for (std::size_t i = 0; i < finished.size(); ++i)
-    finishedOf[renumbered[finished[i].node]] = static_cast<std::uint32_t>(i);
-  built.leafTriangleBegin.assign(nodes.size() + 1, 0);
-  for (std::uint32_t n = 0; n < nodes.size(); ++n) {
-    built.leafTriangleBegin[n] = built.leafTriangles.size();
-    if (finishedOf[n] != kNotALeaf) {
-      const Leaf& leaf = finished[finishedOf[n]];
-      built.leafTriangles.insert(built.leafTriangles.end(), leaf.triangles.begin(), leaf.triangles.end());
-      outcome.error += leaf.error.variation;
-      outcome.area += leaf.error.area;
-      outcome.leavesWorseThanCoarse += leaf.error.worseThanCoarse() ? 1 : 0;
-      outcome.leavesAtMaxDepth += leaf.cell.depth >= settings.maxDepth ? 1 : 0;
-    }
-  }
-  built.leafTriangleBegin.back() = built.leafTriangles.size();
+  refinement.finished().layOut(renumberBreadthFirst(nodes), built);
   return built;
 }
 
