@@ -153,9 +153,10 @@ octree::DetailPrimitives detailForErrorMetric(const DetailSurface& surface, cons
       centres.push_back((a + b + c) / 3.0f);
       normals.push_back(area > 0.0f ? Vec3f(areaNormal / area) : Vec3f(Vec3f::Zero()));
     }
-    Projection projection = projectOntoCoarse(centres, normals, coarse, coarseNormals, reach);
-    const std::vector<Vec3f>& projected = projection.positions;
-    detail.coarseNormals = std::move(projection.coarseNormals);
+    const std::vector<Vec3f> projected = projectOntoCoarse(centres, normals, coarse, coarseNormals, reach).positions;
+    // m's normals at M's vertices, for the metric's comparison with m.
+    detail.coarseNormals =
+        projectOntoCoarse(M.points.positions, M.points.normals, coarse, coarseNormals, reach).coarseNormals;
     detail.triangles = M.triangles;
     for (const Vec3f& p : M.points.positions) detail.positions.push_back(transform.toUnit(p));
     detail.shifts.reserve(M.triangles.size());
@@ -196,7 +197,7 @@ RefinementReport refinementReport(const octree::RefinementOutcome& outcome, cons
   report.stoppedBy = outcome.stoppedBy;
   report.l21 = outcome.error;
   report.rmsDegrees = outcome.rmsDegrees();
-  report.leavesWorseThanCoarse = outcome.leavesWorseThanCoarse;
+  report.leavesShowingCoarse = outcome.leavesShowingCoarse;
   report.leavesAtMaxDepth = outcome.leavesAtMaxDepth;
   return report;
 }
@@ -235,7 +236,9 @@ Result<Bake> bakeWith(const DetailSurface& detail, const CoarseSurface& coarseSu
   const std::vector<Vec3f> coarseNormals =
       coarse.points.normals.size() == coarse.points.size() ? coarse.points.normals : areaWeightedVertexNormals(coarse);
   const float reach = static_cast<float>(options.maxDistance * box.diagonal());
-  const bool withOrigin = coarse.origin != std::array<double, 3>{};  // the .apo version the budget is counted in
+  // The budget counts the 160-byte header of versions 2 and 3 (a budgeted
+  // bake may let leaves show m's normals: version 3).
+  const bool withOrigin = true;
   octree::BuiltOctree built;
   {
     const octree::DetailPrimitives primitives =
@@ -244,9 +247,11 @@ Result<Bake> bakeWith(const DetailSurface& detail, const CoarseSurface& coarseSu
     reportProgress(onProgress, kBuildStart);
     phase = Stopwatch();
     const int completeDepth = options.completeDepth < 0 ? options.coarseDepth : options.completeDepth;
+    // Leaves show m's normals where those are closer, with a budget; with
+    // none, the tree is the paper's.
     built = octree::buildOctree(coarseUnit, primitives,
                                 {options.coarseDepth, options.maxDepth, options.error,
-                                 budgetTexels(options.budget, withOrigin), completeDepth});
+                                 budgetTexels(options.budget, withOrigin), completeDepth, options.budget > 0});
   }
   if (options.budget > 0 && built.refinement.texels > budgetTexels(options.budget, withOrigin))
     return usageError("--budget {} bytes is below the {} bytes of the octree's complete levels (--coarse-depth {}): raise "

@@ -57,7 +57,7 @@ struct RefinementReport {
   std::string stoppedBy;           // "budget", "error" or "converged"
   double l21 = 0.0;                // sum over the leaves
   double rmsDegrees = 0.0;         // M's normals about their leaf's mean
-  std::uint64_t leavesWorseThanCoarse = 0, leavesAtMaxDepth = 0;
+  std::uint64_t leavesShowingCoarse = 0, leavesAtMaxDepth = 0;
 };
 
 struct BakeReport {

@@ -105,31 +105,38 @@ bool boundsInsideCell(const Bounds& b, const Cell& cell) {
   return (b.lo.array() >= cell.lower().array()).all() && (b.hi.array() <= cell.upper().array()).all();
 }
 
+// The integral of |f|^2 over a triangle of area a where f is linear with
+// corner values f0, f1, f2: a (|mean|^2 + a twelfth of the corners' squared
+// deviations from their mean).
+double squaredIntegral(double a, const Eigen::Vector3d& f0, const Eigen::Vector3d& f1, const Eigen::Vector3d& f2) {
+  const Eigen::Vector3d mean = (f0 + f1 + f2) / 3.0;
+  return a * (mean.squaredNorm() + ((f0 - mean).squaredNorm() + (f1 - mean).squaredNorm() + (f2 - mean).squaredNorm()) / 12.0);
+}
+
 // Running sums for the L2,1 integral: over pieces of area a with mean normal
-// mu and internal variance v, sum a |mu - n|^2 + a v expands into these. The
-// same integral against m's normal r (one per piece) needs two sums more.
+// mu and internal variance v, sum a |mu - n|^2 + a v expands into these.
+// `coarse` sums the integral of |n(x) - r(x)|^2, r m's normal field.
 struct VariationSums {
   double area = 0.0, areaMeanSquared = 0.0, areaVariance = 0.0;
   Eigen::Vector3d areaMean = Eigen::Vector3d::Zero();
-  double areaMeanDotCoarse = 0.0, areaCoarseSquared = 0.0;
+  double coarse = 0.0;
 
-  void add(double a, const Eigen::Vector3d& mean, double variance, const Vec3f* coarse) {
+  void add(double a, const Eigen::Vector3d& mean, double variance) {
     area += a;
     areaMean += a * mean;
     areaMeanSquared += a * mean.squaredNorm();
     areaVariance += a * variance;
-    if (!coarse) return;
-    const Eigen::Vector3d r = coarse->cast<double>();
-    areaMeanDotCoarse += a * mean.dot(r);
-    areaCoarseSquared += a * r.squaredNorm();
   }
 
   // A linearly interpolated field over a triangle: its mean is the corners'
-  // mean and its variance a twelfth of the corners' squared deviations.
-  void addTriangle(double a, const Vec3f& n0, const Vec3f& n1, const Vec3f& n2, const Vec3f* coarse) {
+  // mean and its variance a twelfth of the corners' squared deviations; m's
+  // field `r` (null when unknown) is linear too.
+  void addTriangle(double a, const Vec3f& n0, const Vec3f& n1, const Vec3f& n2, const std::array<Vec3f, 3>* r) {
     const Eigen::Vector3d m0 = n0.cast<double>(), m1 = n1.cast<double>(), m2 = n2.cast<double>();
     const Eigen::Vector3d mean = (m0 + m1 + m2) / 3.0;
-    add(a, mean, ((m0 - mean).squaredNorm() + (m1 - mean).squaredNorm() + (m2 - mean).squaredNorm()) / 12.0, coarse);
+    add(a, mean, ((m0 - mean).squaredNorm() + (m1 - mean).squaredNorm() + (m2 - mean).squaredNorm()) / 12.0);
+    if (r)
+      coarse += squaredIntegral(a, m0 - (*r)[0].cast<double>(), m1 - (*r)[1].cast<double>(), m2 - (*r)[2].cast<double>());
   }
 
   double l21() const {
@@ -138,9 +145,7 @@ struct VariationSums {
     const double unitArea = norm > 0.0 ? area : 0.0;   // |n|^2 sum(a)
     return std::max(0.0, areaMeanSquared - 2.0 * alongMean + unitArea + areaVariance);
   }
-  double l21AgainstCoarse() const {
-    return std::max(0.0, areaMeanSquared - 2.0 * areaMeanDotCoarse + areaCoarseSquared + areaVariance);
-  }
+
 };
 
 double triangleArea(const Vec3f& a, const Vec3f& b, const Vec3f& c) {
@@ -153,47 +158,76 @@ void addTriangleInCell(const DetailPrimitives& d, std::uint32_t t, const Cell& c
   const auto c = d.corners(t);
   const Triangle& tri = d.triangles[t];
   const Vec3f &n0 = d.cornerNormals[tri[0]], &n1 = d.cornerNormals[tri[1]], &n2 = d.cornerNormals[tri[2]];
-  const Vec3f* coarse = d.coarseNormals.empty() ? nullptr : &d.coarseNormals[t];
+  const bool withCoarse = !d.coarseNormals.empty();
+  std::array<Vec3f, 3> r{};
+  if (withCoarse) r = {d.coarseNormals[tri[0]], d.coarseNormals[tri[1]], d.coarseNormals[tri[2]]};
   if (boundsInsideCell(triangleBounds(c[0], c[1], c[2]), cell)) {
-    sums.addTriangle(d.areaScale * triangleArea(c[0], c[1], c[2]), n0, n1, n2, coarse);
+    sums.addTriangle(d.areaScale * triangleArea(c[0], c[1], c[2]), n0, n1, n2, withCoarse ? &r : nullptr);
     return;
   }
   const ClippedPolygon piece = clipToCell(c[0], c[1], c[2], cell);
   if (piece.size < 3) return;
-  std::array<Vec3f, 9> normals;
+  std::array<Vec3f, 9> normals, coarse;
   for (int k = 0; k < piece.size; ++k) {
     const Eigen::Vector3f w = barycentricsOf(piece.corners[k], c[0], c[1], c[2]);
     normals[k] = w[0] * n0 + w[1] * n1 + w[2] * n2;
+    if (withCoarse) coarse[k] = w[0] * r[0] + w[1] * r[1] + w[2] * r[2];
   }
-  for (int k = 1; k + 1 < piece.size; ++k)
+  for (int k = 1; k + 1 < piece.size; ++k) {
+    const std::array<Vec3f, 3> pieceCoarse = {coarse[0], coarse[k], coarse[k + 1]};
     sums.addTriangle(d.areaScale * triangleArea(piece.corners[0], piece.corners[k], piece.corners[k + 1]), normals[0],
-                     normals[k], normals[k + 1], coarse);
+                     normals[k], normals[k + 1], withCoarse ? &pieceCoarse : nullptr);
+  }
 }
 
-// What a leaf costs in error: its L2,1, the same against m's normals, and
-// M's area in it.
+// A leaf that stops refining shows m's normals where they leave less than
+// this share of its own error. The leaf's error is that of one constant
+// normal, but the renders blend neighbouring leaves (paper 5.3), which
+// follows M far closer (30-60% less error on the bundled meshes): taking m
+// wherever it merely beats the constant cost bunny00 6% of its filtered
+// accuracy at 3 MiB (0.208 degrees mean against 0.196).
+constexpr double kCoarseAdvantage = 0.01;
+// m's normals within this of M's (root mean square) are M's for any
+// renderer: such a leaf needs no split (m is M there, as when M had no more
+// faces than the simplification's target).
+constexpr double kCoarseExactDegrees = 0.02;
+
+double squaredRadians(double degrees) {
+  const double radians = degrees * std::numbers::pi / 180.0;
+  return radians * radians;
+}
+
+// What a leaf costs in error: its L2,1 and the same integral against m's
+// normals, and M's area in it. The refinement ranks splits by the L2,1
+// (ranking by the smaller of the two stopped refining where m was close
+// but a finer APO closer still: bumpy sphere at 42 KB, 0.274 degrees
+// against 0.236 for the paper's threshold); with `deferToCoarse`, a leaf
+// where m is far closer shows m's normals when it stops.
 struct LeafError {
   double variation = 0.0, coarse = 0.0, area = 0.0;
-  bool coarseKnown = false;
+  bool deferToCoarse = false;
 
-  bool worseThanCoarse() const { return coarseKnown && variation > coarse; }
-  double excessOverCoarse() const { return worseThanCoarse() ? variation - coarse : 0.0; }
+  bool showsCoarse() const { return deferToCoarse && coarse < kCoarseAdvantage * variation; }
+  double shown() const { return showsCoarse() ? coarse : variation; }
   bool negligible() const {
-    const double radians = kNegligibleDegrees * std::numbers::pi / 180.0;
-    return variation <= area * radians * radians;
+    return variation <= area * squaredRadians(kNegligibleDegrees) ||
+           (deferToCoarse && coarse <= area * squaredRadians(kCoarseExactDegrees));
   }
 };
 
-LeafError errorInCell(const DetailPrimitives& detail, const std::vector<std::uint32_t>& primitives, const Cell& cell) {
+LeafError errorInCell(const DetailPrimitives& detail, const std::vector<std::uint32_t>& primitives, const Cell& cell,
+                      bool deferToCoarse) {
   VariationSums sums;
   for (const std::uint32_t i : primitives) {
     if (detail.triangles.empty())
-      sums.add(detail.weights[i], detail.normals[i].cast<double>(), 0.0,
-               detail.coarseNormals.empty() ? nullptr : &detail.coarseNormals[i]);
-    else
+    {
+      sums.add(detail.weights[i], detail.normals[i].cast<double>(), 0.0);
+      if (!detail.coarseNormals.empty())
+        sums.coarse += detail.weights[i] * (detail.normals[i] - detail.coarseNormals[i]).cast<double>().squaredNorm();
+    } else
       addTriangleInCell(detail, i, cell, sums);
   }
-  return {sums.l21(), sums.l21AgainstCoarse(), sums.area, !detail.coarseNormals.empty()};
+  return {sums.l21(), sums.coarse, sums.area, deferToCoarse && !detail.coarseNormals.empty()};
 }
 
 // Children of `cell` whose closed box meets the bounds: on each axis the
@@ -332,11 +366,7 @@ struct Candidate {
   // though its total L2,1 is a few percent above the paper's rule's at
   // equal texels: the filtered lookup gains most where M's normal turns
   // sharply in a part of the cell, which this value finds first).
-  // A leaf farther from M than m's own normals is worth its excess more
-  // (the "never worse than m"): ranked first outright, such leaves
-  // took the bytes of the detail at small budgets (bumpy sphere, 42 KB:
-  // 0.254 degrees against 0.226 by the paper's threshold).
-  double value() const { return std::max(gain, largestChildError) + leaf.error.excessOverCoarse(); }
+  double value() const { return std::max(gain, largestChildError); }
   double valuePerTexel() const { return value() / static_cast<double>(texels()); }
 };
 
@@ -387,7 +417,7 @@ class Refinement {
         child.cell = cell.child(c);
         child.triangles = std::move(childTriangles[c]);
         child.primitives = std::move(childPrimitives[c]);
-        child.error = errorInCell(detail_, child.primitives, child.cell);
+        child.error = errorInCell(detail_, child.primitives, child.cell, settings_.deferToCoarse);
         childError += child.error.variation;
         candidate.largestChildError = std::max(candidate.largestChildError, child.error.variation);
         candidate.children.push_back(std::move(child));
@@ -401,10 +431,9 @@ class Refinement {
     return candidate;
   }
 
-  // A split worth making: some of m below, and either worth something or a
-  // leaf worse than m's normals (its children may not be).
+  // A split worth making: some of m below, and worth something.
   static bool worthSplitting(const Candidate& c) {
-    return c.mask != 0 && (c.value() > 0.0 || c.leaf.error.worseThanCoarse());
+    return c.mask != 0 && c.value() > 0.0;
   }
 
  private:
@@ -554,7 +583,7 @@ Eigen::Vector3f barycentricsOf(const Vec3f& p, const Vec3f& a, const Vec3f& b, c
 }
 
 double normalVariation(const DetailPrimitives& detail, const std::vector<std::uint32_t>& primitives, const Cell& cell) {
-  return errorInCell(detail, primitives, cell).variation;
+  return errorInCell(detail, primitives, cell, false).variation;
 }
 
 double RefinementOutcome::rmsDegrees() const {
@@ -570,15 +599,17 @@ class FinishedLeaves {
   FinishedLeaves(int maxDepth) : maxDepth_(maxDepth) {}
 
   void add(const Leaf& leaf, RefinementOutcome& outcome) {
-    records_.push_back({leaf.node, triangles_.size(), static_cast<std::uint32_t>(leaf.triangles.size())});
+    records_.push_back(
+        {leaf.node, triangles_.size(), static_cast<std::uint32_t>(leaf.triangles.size()), leaf.error.showsCoarse()});
     triangles_.insert(triangles_.end(), leaf.triangles.begin(), leaf.triangles.end());
-    outcome.error += leaf.error.variation;
+    outcome.error += leaf.error.shown();
     outcome.area += leaf.error.area;
-    outcome.leavesWorseThanCoarse += leaf.error.worseThanCoarse() ? 1 : 0;
+    outcome.leavesShowingCoarse += leaf.error.showsCoarse() ? 1 : 0;
     outcome.leavesAtMaxDepth += leaf.cell.depth >= maxDepth_ ? 1 : 0;
   }
 
-  // The CSR of m's triangles per node, nodes renumbered by `newNumber`.
+  // The CSR of m's triangles per node, nodes renumbered by `newNumber`, and
+  // the leaves that show m's normals marked.
   void layOut(const std::vector<std::uint32_t>& newNumber, BuiltOctree& built) const {
     std::vector<std::uint32_t> recordOf(newNumber.size(), kNotALeaf);
     for (std::size_t i = 0; i < records_.size(); ++i) recordOf[newNumber[records_[i].node]] = static_cast<std::uint32_t>(i);
@@ -589,6 +620,7 @@ class FinishedLeaves {
       built.leafTriangleBegin[n] = built.leafTriangles.size();
       if (recordOf[n] == kNotALeaf) continue;
       const Record& record = records_[recordOf[n]];
+      built.octree.nodes[n].coarseNormal = record.showsCoarse;
       const auto first = triangles_.begin() + static_cast<std::ptrdiff_t>(record.begin);
       built.leafTriangles.insert(built.leafTriangles.end(), first, first + record.count);
     }
@@ -600,6 +632,7 @@ class FinishedLeaves {
     std::uint32_t node;
     std::uint64_t begin;
     std::uint32_t count;
+    bool showsCoarse;
   };
   int maxDepth_;
   std::vector<Record> records_;
@@ -621,7 +654,7 @@ class GlobalRefinement {
   // The coarse cells, their errors computed in parallel.
   void start(std::vector<Leaf> leaves) {
     tbb::parallel_for(std::size_t{0}, leaves.size(), [&](std::size_t i) {
-      leaves[i].error = errorInCell(detail_, leaves[i].primitives, leaves[i].cell);
+      leaves[i].error = errorInCell(detail_, leaves[i].primitives, leaves[i].cell, settings_.deferToCoarse);
     });
     for (Leaf& leaf : leaves) file(std::move(leaf));
   }
@@ -709,7 +742,7 @@ class GlobalRefinement {
     // rounds of many entries stay close to it). Tighter guesses (the
     // parent's ratio) evaluated half as many leaves but lost 2-4% of the
     // accuracy on bunny00.
-    const double key = evaluated ? candidate.valuePerTexel() : (error.variation + error.excessOverCoarse()) / 2.0;
+    const double key = evaluated ? candidate.valuePerTexel() : error.variation / 2.0;
     queue_.push_back({evaluated, key, candidate.leaf.node, put(std::move(candidate))});
     std::push_heap(queue_.begin(), queue_.end(), QueueEntry::after);
   }

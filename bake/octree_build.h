@@ -46,9 +46,10 @@ struct DetailPrimitives {
   double areaScale = 1.0;            // triangles
   std::vector<Vec3f> normals;        // per point
   std::vector<float> weights;        // per point
-  // Per primitive: m's interpolated normal where the primitive projects onto
-  // m (zero where its line misses m); empty when m's normals are not known.
-  // The refinement compares the cell's mean normal with it (never worse than m).
+  // Per position (M's vertex or point): m's interpolated normal where it
+  // projects onto m along its normal (zero where that line misses m); empty
+  // when not known. The metric integrates M's field against m's over each
+  // piece (both linear on a triangle), so a cell knows how far m alone is.
   std::vector<Vec3f> coarseNormals;
 
   std::size_t size() const { return triangles.empty() ? positions.size() : triangles.size(); }
@@ -70,8 +71,7 @@ struct CoarseMesh {
 };
 
 // How the refinement stops (docs/bake.md, "Refinement"): a leaf splits next
-// when its split lowers the total L2,1 most per texel added (leaves farther
-// from M than m's own normals first), until the texels reach `budgetTexels`
+// when its split lowers the total L2,1 most per texel added, until the texels reach `budgetTexels`
 // or no split helps (every leaf within kNegligibleDegrees of M or at the
 // maximum depth). With `error`, a leaf whose L2,1 is at most that never
 // splits (the paper's rule; with no budget, its tree exactly).
@@ -80,6 +80,9 @@ struct BuildSettings {
   double error = 0.0;                // > 0: the paper's threshold, a leaf whose L2,1 is at most this stays a leaf
   std::uint64_t budgetTexels = 0;    // > 0: the texels the encoded texture may use (grid included)
   int completeDepth = 5;             // the encoding's completion depth: nodes above it take no texel
+  // Leaves where m's own normals are closer to M than the leaf's one normal
+  // show m's (OctreeNode::coarseNormal), and their error is m's.
+  bool deferToCoarse = false;
 };
 
 // A leaf whose normals deviate from their mean by less than this (root mean
@@ -93,7 +96,7 @@ struct RefinementOutcome {
   std::uint64_t texels = 0;          // the texture's used texels, grid included
   double error = 0.0;                // sum over leaves of their L2,1 (units of M's mean area)
   double area = 0.0;                 // M's area in the leaves, same units
-  std::uint64_t leavesWorseThanCoarse = 0;  // leaves whose mean normal is farther from M than m's normals
+  std::uint64_t leavesShowingCoarse = 0;  // leaves that show m's own normal (deferToCoarse)
   std::uint64_t leavesAtMaxDepth = 0;
   // Root mean square deviation of M's normals from their leaf's mean, in degrees.
   double rmsDegrees() const;

@@ -17,7 +17,7 @@ std::string bakeReportJson(const BakeReport& r) {
                         {"stopped_by", f.stoppedBy},
                         {"l21", f.l21},
                         {"rms_degrees", f.rmsDegrees},
-                        {"leaves_worse_than_m", f.leavesWorseThanCoarse},
+                        {"leaves_showing_m", f.leavesShowingCoarse},
                         {"leaves_at_max_depth", f.leavesAtMaxDepth}};
   json["sampling"] = {{"rays", r.rays}, {"samples_hit", r.hits}, {"samples_fallback", r.fallbacks}};
   json["texture"] = {{"width", r.textureWidth}, {"height", r.textureHeight}, {"bytes", r.textureBytes}};

@@ -96,10 +96,11 @@ int run(int argc, char** argv) {
     const Vec3f point = w * p[t[0]] + s.u * p[t[1]] + s.v * p[t[2]];
     const Vec3f bare = w * coarseNormals[t[0]] + s.u * coarseNormals[t[1]] + s.v * coarseNormals[t[2]];
     const Vec3f truth = (*closest)->closest(point).value().normal;
-    const apo::Lookup found = apo::lookupTexture(*texture, texture->transform.toUnit(point));
+    const Vec3f coarseNormal = bare.normalized();  // what leaves that show m's normal give
+    const apo::Lookup found = apo::lookupTexture(*texture, texture->transform.toUnit(point), 255, coarseNormal);
     if (!found.found) ++outside;
     apoErrors.push_back(found.found ? degreesBetween(found.normal, truth) : 180.0);
-    const apo::Lookup filtered = apo::lookupTextureFiltered(*texture, texture->transform.toUnit(point));
+    const apo::Lookup filtered = apo::lookupTextureFiltered(*texture, texture->transform.toUnit(point), coarseNormal);
     filteredErrors.push_back(filtered.found ? degreesBetween(filtered.normal, truth) : 180.0);
     bareErrors.push_back(degreesBetween(bare, truth));
   }

@@ -21,7 +21,7 @@ run() { "$@" >>"$out/log.txt" 2>&1 || { echo "FAILED: $*" >&2; exit 1; }; }
 json() { python3 -c "import json,sys; j=json.load(open(sys.argv[1])); print(eval(sys.argv[2]))" "$@"; }
 # "mean / median / p95" of normal_eval's summary line.
 judge() {
-  /usr/bin/python3 ../shared/tools/normal_eval.py "$mesh" "$out/m/m.ply" --apo-lookup "$apo -q lookup {apo} {points} -o {out} --filter" \
+  /usr/bin/python3 ../shared/tools/normal_eval.py "$mesh" "$out/m/m.ply" --apo-lookup "$apo -q lookup {apo} {points} -o {out} --filter --coarse $out/m/m.ply" \
     --apo "$1" --json "$1.eval.json" >>"$out/log.txt" 2>&1
   json "$1.eval.json" "'%.3f / %.3f / %.3f' % (j['stats']['mean'], j['stats']['median'], j['stats']['p95'])"
 }

@@ -47,22 +47,41 @@ struct LookupCommand {
   fs::path apo;
   fs::path points;
   fs::path output;
+  fs::path coarse;  // m: needed by files whose leaves may show m's own normal
   int depth = 255;
   bool filter = false;
 };
+
+// m's normal at each point, when the file lets leaves show it (version 3).
+Result<std::vector<Vec3f>> coarseNormalsFor(const LookupCommand& command, const ApoTexture& texture,
+                                            const std::vector<Vec3f>& points) {
+  if (!texture.defersToCoarse) return std::vector<Vec3f>(points.size(), Vec3f::Zero());
+  if (command.coarse.empty())
+    return usageError("{}: some leaves show m's own normal (format version 3): give m with --coarse",
+                      command.apo.string());
+  auto coarse = readScan(command.coarse);
+  if (!coarse) return coarse.error();
+  if (!coarse->isMesh()) return badInput("{}: m must be a triangle mesh", command.coarse.string());
+  return coarseNormalsAt(*coarse, points);
+}
 
 int runLookup(const LookupCommand& command) {
   auto texture = readApoFile(command.apo);
   if (!texture) return reportFailure(texture.error());
   auto points = readScan(command.points);
   if (!points) return reportFailure(points.error());
+  const std::vector<Vec3f>& positions = points->points.positions;
+  const auto coarseNormals = coarseNormalsFor(command, *texture, positions);
+  if (!coarseNormals) return reportFailure(coarseNormals.error());
   std::string text;
   std::uint64_t outside = 0;
-  for (const Vec3f& p : points->points.positions) {
+  for (std::size_t i = 0; i < positions.size(); ++i) {
     // The filtered lookup is the one the report, the measure against the
     // scan and the accuracy bench use (format/format.h).
-    const Vec3f unit = texture->transform.toUnit(p);
-    const Lookup found = command.filter ? lookupTextureFiltered(*texture, unit) : lookupTexture(*texture, unit, command.depth);
+    const Vec3f unit = texture->transform.toUnit(positions[i]);
+    const Vec3f& coarse = (*coarseNormals)[i];
+    const Lookup found = command.filter ? lookupTextureFiltered(*texture, unit, coarse)
+                                        : lookupTexture(*texture, unit, command.depth, coarse);
     outside += found.found ? 0 : 1;
     const Vec3f n = found.found ? found.normal : Vec3f::Zero();
     text += fmt::format("{:.9g} {:.9g} {:.9g}\n", n.x(), n.y(), n.z());
@@ -92,6 +111,8 @@ void addLookupCommand(CLI::App& app, int& exitCode) {
   sub->add_option("points", command->points, "Points, one `x y z` per line (.xyz)")->required();
   sub->add_option("-o,--out", command->output, "Output: one `nx ny nz` per point, `0 0 0` outside the octree")
       ->required();
+  sub->add_option("--coarse", command->coarse,
+                  "m (m.ply): where leaves show m's own normal (format version 3), its normal at the closest point");
   CLI::Option* depth = sub->add_option("--depth", command->depth, "Stop the walk at this depth")->capture_default_str();
   sub->add_flag("--filter", command->filter,
                 "Trilinear filtering of the 8 neighbouring cells, as the shader with filtering on and the report's "

@@ -16,6 +16,12 @@ using namespace cells;
 using texel::kEmptyCell;
 
 // A node of the texture's forest as the validator found it.
+// Whether normal bytes are version 3's "m's own normal" code.
+bool isCoarseCode(const ApoTexture& texture, const std::array<std::uint8_t, 3>& bytes) {
+  const std::uint32_t value = std::uint32_t{bytes[0]} | std::uint32_t{bytes[1]} << 8 | std::uint32_t{bytes[2]} << 16;
+  return texture.defersToCoarse && value == texel::coarseCode(texture.encoding == NormalEncoding::Xyz8);
+}
+
 struct ForestNode {
   std::uint8_t childMask = 0, kindMask = 0;
   std::array<std::uint8_t, 3> normal{};
@@ -103,6 +109,9 @@ class ForestReader {
     if (internal && next_ + 2 > used_)
       return badInput("texel {}: an internal node's second texel is past the {} used texels", next_, used_);
     node.normal = texel::rgb(texture_.texels, internal ? next_ + 1 : next_);
+    if (internal && isCoarseCode(texture_, node.normal))
+      return badInput("texel {}: an internal node's normal is the code of m's own normal, which only leaves hold",
+                      next_ + 1);
     if (internal) node.kindMask = texel::alpha(texture_.texels, next_ + 1);
     if (node.kindMask & ~node.childMask)
       return badInput("texel {}: kind mask {:#04x} marks children absent from the child mask {:#04x}", next_ + 1,
@@ -224,7 +233,8 @@ class OctreeBuilder {
     node.depth = static_cast<std::uint8_t>(source.depth);
     if (source.forestNode != kNoNode) {
       const ForestNode& forestNode = forest_.nodes[source.forestNode];
-      node.normal = decodeNormal(forestNode.normal, texture_.encoding);
+      node.coarseNormal = isCoarseCode(texture_, forestNode.normal);
+      node.normal = node.coarseNormal ? Vec3f(Vec3f::Zero()) : decodeNormal(forestNode.normal, texture_.encoding);
       node.childMask = forestNode.childMask;
     } else {
       for (const Source& child : childrenOf(source))

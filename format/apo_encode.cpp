@@ -140,7 +140,7 @@ class ForestEncoder {
     const std::array<std::uint8_t, 3> normal = encodeNormal(node.normal, texture_.encoding);
     if (node.isLeaf()) {
       grow(texels);
-      putTexel(texels, item.texel, normal, 0);
+      putTexel(texels, item.texel, node.coarseNormal ? coarseBytes() : normal, 0);
       return okStatus();
     }
     checkBrood(octree_, node);
@@ -154,6 +154,12 @@ class ForestEncoder {
     putTexel(texels, item.texel, {offsetBytes[0], offsetBytes[1], offsetBytes[2]}, node.childMask);
     putTexel(texels, item.texel + 1, normal, kindMaskOf(octree_, node));
     return okStatus();
+  }
+
+  std::array<std::uint8_t, 3> coarseBytes() const {
+    const std::uint32_t code = texel::coarseCode(texture_.encoding == NormalEncoding::Xyz8);
+    return {static_cast<std::uint8_t>(code & 0xFF), static_cast<std::uint8_t>((code >> 8) & 0xFF),
+            static_cast<std::uint8_t>(code >> 16)};
   }
 
   // Room for every texel assigned so far.
@@ -183,6 +189,8 @@ Result<ApoTexture> encodeApo(const Octree& octree, int completeDepth, NormalEnco
   texture.maxDepth = maxDepth;
   texture.completeDepth = static_cast<std::uint8_t>(completeDepth);
   texture.encoding = encoding;
+  texture.defersToCoarse = std::any_of(octree.nodes.begin(), octree.nodes.end(),
+                                       [](const OctreeNode& node) { return node.isLeaf() && node.coarseNormal; });
   // Grid entries of empty cells stay kEmptyCell.
   texture.texels.assign(4 * texture.gridTexels(), 0xFF);
 

@@ -1,5 +1,5 @@
-// The .apo file, format versions 1 and 2 (docs/apo-format.md): a 128-byte
-// little-endian header (160 bytes in version 2, which adds the scan's local
+// The .apo file, format versions 1 to 3 (docs/apo-format.md): a 128-byte
+// little-endian header (160 bytes in versions 2 and 3, which add the scan's local
 // frame origin), then the texture's texels. The reader trusts nothing:
 // every header field is checked, sizes against the actual file size before
 // anything is allocated for them, the payload against its SHA-256, and the
@@ -78,8 +78,13 @@ constexpr std::array<std::uint8_t, 8> kMagicBytes = {0x89, 'A', 'P', 'O', '\r', 
 // version 2 existed), version 2 otherwise; both are read.
 constexpr std::uint32_t kFormatVersion = 1;
 constexpr std::uint32_t kFormatVersionWithOrigin = 2;
+// Version 3: version 2's header (origin zero or not), and leaves may hold
+// the code of "m's own normal" (docs/apo-format.md). Written only when some
+// leaf does.
+constexpr std::uint32_t kFormatVersionDeferringToCoarse = 3;
+bool hasOrigin(std::uint32_t version) { return version >= kFormatVersionWithOrigin; }
 
-std::uint32_t headerBytesOf(std::uint32_t version) { return version == kFormatVersionWithOrigin ? kHeaderBytesV2 : kHeaderBytes; }
+std::uint32_t headerBytesOf(std::uint32_t version) { return hasOrigin(version) ? kHeaderBytesV2 : kHeaderBytes; }
 // Stored little-endian as 04 03 02 01; any other order means a writer that
 // ignored the byte order.
 constexpr std::uint32_t kByteOrderMark = 0x01020304;
@@ -150,7 +155,9 @@ Header headerOf(const ApoTexture& texture) {
   Header header;
   header.magic = kMagicBytes;
   header.origin = texture.origin;
-  header.version = header.origin == std::array<double, 3>{} ? kFormatVersion : kFormatVersionWithOrigin;
+  header.version = texture.defersToCoarse                         ? kFormatVersionDeferringToCoarse
+                   : header.origin == std::array<double, 3>{} ? kFormatVersion
+                                                              : kFormatVersionWithOrigin;
   header.byteOrderMark = kByteOrderMark;
   header.headerSize = headerBytesOf(header.version);
   header.scale = texture.transform.scale;
@@ -190,7 +197,7 @@ std::string headerBytes(const Header& header) {
   out.integer(kUsedTexels, header.usedTexels);
   out.integer(kPayloadSize, header.payloadSize);
   out.raw(kChecksum, header.checksum);
-  if (header.version == kFormatVersionWithOrigin) {
+  if (hasOrigin(header.version)) {
     out.float64(kOriginX, header.origin[0]);
     out.float64(kOriginY, header.origin[1]);
     out.float64(kOriginZ, header.origin[2]);
@@ -270,7 +277,7 @@ Result<Header> parseHeader(std::string_view bytes, std::uint64_t fileSize) {
   APO_RETURN_IF_ERROR(in.integer(kUsedTexels, header.usedTexels));
   APO_RETURN_IF_ERROR(in.integer(kPayloadSize, header.payloadSize));
   APO_RETURN_IF_ERROR(in.raw(kChecksum, header.checksum));
-  if (header.version == kFormatVersionWithOrigin) {
+  if (hasOrigin(header.version)) {
     APO_RETURN_IF_ERROR(in.float64(kOriginX, header.origin[0]));
     APO_RETURN_IF_ERROR(in.float64(kOriginY, header.origin[1]));
     APO_RETURN_IF_ERROR(in.float64(kOriginZ, header.origin[2]));
@@ -281,9 +288,9 @@ Result<Header> parseHeader(std::string_view bytes, std::uint64_t fileSize) {
 
 Status checkIdentity(const Header& header) {
   APO_RETURN_IF_ERROR(checkMagic(header));
-  if (header.version != kFormatVersion && header.version != kFormatVersionWithOrigin)
-    return fieldError(kVersion, "expected {} or {} (the versions this reader knows), found {}", kFormatVersion,
-                      kFormatVersionWithOrigin, header.version);
+  if (header.version < kFormatVersion || header.version > kFormatVersionDeferringToCoarse)
+    return fieldError(kVersion, "expected {} to {} (the versions this reader knows), found {}", kFormatVersion,
+                      kFormatVersionDeferringToCoarse, header.version);
   if (header.byteOrderMark != kByteOrderMark)
     return fieldError(kByteOrder, "expected {:#010x} stored as 04 03 02 01, found {:#010x}", kByteOrderMark,
                       header.byteOrderMark);
@@ -294,7 +301,7 @@ Status checkIdentity(const Header& header) {
 }
 
 Status checkOrigin(const Header& header) {
-  if (header.version != kFormatVersionWithOrigin) return okStatus();
+  if (!hasOrigin(header.version)) return okStatus();
   const Field* fields[] = {&kOriginX, &kOriginY, &kOriginZ};
   for (int axis = 0; axis < 3; ++axis)
     if (!std::isfinite(header.origin[axis]))
@@ -378,6 +385,7 @@ ApoTexture textureOf(const Header& header, std::vector<std::uint8_t> texels) {
   texture.internalNodes = header.internalNodes;
   texture.texels = std::move(texels);
   texture.origin = header.origin;
+  texture.defersToCoarse = header.version == kFormatVersionDeferringToCoarse;
   return texture;
 }
 

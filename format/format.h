@@ -48,6 +48,10 @@ struct OctreeNode {
   std::uint32_t firstChild = kNoChild;  // the children are contiguous, in increasing child index
   std::uint8_t childMask = 0;           // bit c set when child c exists (intersects m)
   std::uint8_t depth = 0;
+  // A leaf that shows m's own interpolated normal (m is closer to M there
+  // than any one normal of the cell): stored as the reserved normal code of
+  // format version 3; `normal` is still the cell's, for the levels above.
+  bool coarseNormal = false;
 
   bool isLeaf() const { return childMask == 0; }
 };
@@ -83,6 +87,10 @@ struct ApoTexture {
   // + the world coordinates `transform` maps. Zero for most scans; stored in
   // .apo version 2.
   std::array<double, 3> origin = {0.0, 0.0, 0.0};
+  // Format version 3: a node whose normal bytes are the reserved code shows
+  // m's own interpolated normal (OctreeNode::coarseNormal). Set by the
+  // encoder when some leaf does, and by the reader for version 3 files.
+  bool defersToCoarse = false;
 
   std::uint64_t gridTexels() const { return std::uint64_t{1} << (3 * completeDepth); }
   std::uint64_t usedTexels() const;  // grid + nodes; the rest of the last row is zero
@@ -103,21 +111,32 @@ struct Lookup {
   Vec3f normal = Vec3f::Zero();   // decoded normal of the node it stopped at
   std::uint32_t texel = 0;        // first texel of that node
   int depth = 0;                  // that node's depth in the octree
+  bool coarse = false;            // that node shows m's own normal: `normal` is the caller's
 };
 
 // Walks the encoded texture exactly as the shader does: the grid cell of P,
 // then the child index from the sign of P minus the cell centre and the offset
 // from the masks, until a leaf, a missing child (the last node's normal), or
 // `maxDepth`. `unitPoint` is in unit-cube coordinates.
-Lookup lookupTexture(const ApoTexture& texture, const Vec3f& unitPoint, int maxDepth = 255);
+// `coarseNormal` is m's interpolated normal at the point (what the shader
+// has per fragment), answered where the node defers to m (version 3); zero
+// when the caller has no m.
+Lookup lookupTexture(const ApoTexture& texture, const Vec3f& unitPoint, int maxDepth = 255,
+                     const Vec3f& coarseNormal = Vec3f::Zero());
 // Paper 5.3, as the shader's filtering does it: the normals of the 8 cells
 // around P at the depth of P's own cell, blended trilinearly; each is found by
 // its own walk (to that depth at most); a neighbour outside the octree, or
 // whose walk stops more than one level above P's cell, takes P's own normal.
 // Not found when P itself is outside.
-Lookup lookupTextureFiltered(const ApoTexture& texture, const Vec3f& unitPoint);
+// A neighbour deferring to m contributes `coarseNormal`; a neighbour facing
+// away from it (the other side of a thin part) does not enter the blend.
+// Without m (zero), P's own cell's normal decides what faces away; the
+// shader always has m.
+Lookup lookupTextureFiltered(const ApoTexture& texture, const Vec3f& unitPoint,
+                             const Vec3f& coarseNormal = Vec3f::Zero());
 // The same walk in the in-memory octree, from the root (for tests).
-Lookup lookupOctree(const Octree& octree, const Vec3f& unitPoint, int maxDepth = 255);
+Lookup lookupOctree(const Octree& octree, const Vec3f& unitPoint, int maxDepth = 255,
+                    const Vec3f& coarseNormal = Vec3f::Zero());
 
 // The .apo file (format version 1). Reading validates every field and the
 // payload checksum; a corrupt or truncated file is BadInput naming the field.

@@ -18,9 +18,12 @@ std::string glslLayoutDefinitions() {
       "const int APO_OCT_BITS = {};\n"
       "const uint APO_OCT_MASK = 0x{:X}u;\n"
       "const float APO_OCT_MAX_LEVEL = {}.0;\n"
-      "const int APO_MAX_WALK_STEPS = {};\n",
+      "const int APO_MAX_WALK_STEPS = {};\n"
+      "const uint APO_COARSE_XYZ8 = 0x{:X}u;\n"
+      "const uint APO_COARSE_OCT24 = 0x{:X}u;\n",
       texel::kEmptyCell, static_cast<int>(NormalEncoding::Xyz8), static_cast<int>(NormalEncoding::Oct24),
-      texel::kXyzMaxLevel, texel::kOctBits, texel::kOctMaxLevel, texel::kOctMaxLevel, texel::kMaxWalkSteps);
+      texel::kXyzMaxLevel, texel::kOctBits, texel::kOctMaxLevel, texel::kOctMaxLevel, texel::kMaxWalkSteps,
+      texel::kCoarseXyz8, texel::kCoarseOct24);
 }
 
 }  // namespace apo

@@ -107,6 +107,9 @@ std::array<std::uint8_t, 3> encodeOct24Precise(const Vec3f& normal) {
       }
     }
   }
+  // (4095, 0) decodes to -z like (4095, 4095): it is kept for version 3's
+  // "m's own normal" (texel_layout.h).
+  if (bestU == kOctMaxLevel && bestV == 0) bestV = kOctMaxLevel;
   return packOct24(bestU, bestV);
 }
 

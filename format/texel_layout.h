@@ -30,6 +30,14 @@ inline constexpr int kXyzMaxLevel = 255;
 inline constexpr int kOctBits = 12;
 inline constexpr int kOctMaxLevel = (1 << kOctBits) - 1;
 
+// Format version 3: the normal bytes that mean "m's own interpolated normal"
+// (OctreeNode::coarseNormal). Codes no unit normal is encoded to: xyz8
+// (128, 128, 128) would need every coordinate within 0.01 of 0; oct24
+// (qu 4095, qv 0) decodes to -z, which the encoder writes as (4095, 4095).
+inline constexpr std::uint32_t kCoarseXyz8 = 0x808080u;
+inline constexpr std::uint32_t kCoarseOct24 = 0x000FFFu;
+inline std::uint32_t coarseCode(bool xyz8) { return xyz8 ? kCoarseXyz8 : kCoarseOct24; }
+
 // A walk visits the grid's node and at most one node per level below it.
 inline constexpr int kMaxWalkSteps = kMaxDepth + 1;
 

@@ -54,4 +54,18 @@ Result<Bake> bakeApo(const Scan& detail, const Scan& coarse, const BakeOptions& 
   return bake;
 }
 
+Result<std::vector<Vec3f>> coarseNormalsAt(const Scan& coarse, const std::vector<Vec3f>& points) {
+  Scan m = coarse;
+  if (m.points.normals.size() != m.points.size()) m.points.normals = areaWeightedVertexNormals(m);
+  auto closest = makeFlannClosestPoint(m);
+  if (!closest) return closest.error();
+  std::vector<Vec3f> normals(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const std::optional<SurfacePoint> found = (*closest)->closest(points[i]);
+    if (!found) return internalError("the closest-point search over m failed");
+    normals[i] = found->normal;
+  }
+  return normals;
+}
+
 }  // namespace apo

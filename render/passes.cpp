@@ -173,6 +173,7 @@ void setApoUniforms(const gl::Api& api, GLuint program, const ApoTexture& apo, c
   api.Uniform1i(api.GetUniformLocation(program, "widthShift"), std::countr_zero(apo.width));
   api.Uniform1i(api.GetUniformLocation(program, "completeDepth"), apo.completeDepth);
   api.Uniform1ui(api.GetUniformLocation(program, "normalEncoding"), static_cast<GLuint>(apo.encoding));
+  api.Uniform1i(api.GetUniformLocation(program, "defersToCoarse"), apo.defersToCoarse ? 1 : 0);
   api.Uniform1f(api.GetUniformLocation(program, "unitScale"), static_cast<float>(apo.transform.scale));
   api.Uniform3f(api.GetUniformLocation(program, "unitOffset"), static_cast<float>(apo.transform.offset[0]),
                 static_cast<float>(apo.transform.offset[1]), static_cast<float>(apo.transform.offset[2]));
@@ -420,16 +421,20 @@ Result<WalkAgreement> compareWalkWithCpu(const Scan& coarse, const ApoTexture& a
     useApoProgram(*scene, apoProgram, apo, camera, false, true);
     auto filtered = renderPass(*scene->context, apoProgram, scene->coarse, camera);
     if (!filtered) return filtered.error();
+    // m's own normals: what leaves of a version 3 file show.
+    auto bare = renderPass(*scene->context, scene->programs.vertexNormals.id(), scene->coarse, camera);
+    if (!bare) return bare.error();
     const std::size_t pixels = static_cast<std::size_t>(size) * static_cast<std::size_t>(size);
     for (std::size_t i = 0; i < pixels; ++i) {
       if (!pass->normals.covered(i)) continue;
-      const Lookup cpuFiltered = lookupTextureFiltered(apo, pass->normals.normal(i));
+      const Vec3f coarseNormal = bare->normals.covered(i) ? bare->normals.normal(i) : Vec3f(Vec3f::Zero());
+      const Lookup cpuFiltered = lookupTextureFiltered(apo, pass->normals.normal(i), coarseNormal);
       if (cpuFiltered.found && filtered->normals.covered(i))
         agreement.maxFilteredDegrees =
             std::max(agreement.maxFilteredDegrees, angleDegrees(cpuFiltered.normal, filtered->normals.normal(i)));
       const std::uint8_t* b = &pass->shaded.rgba[4 * i];
       const std::uint32_t gpuNode = b[0] | (b[1] << 8) | (b[2] << 16) | (static_cast<std::uint32_t>(b[3]) << 24);
-      const Lookup cpu = lookupTexture(apo, pass->normals.normal(i));
+      const Lookup cpu = lookupTexture(apo, pass->normals.normal(i), 255, coarseNormal);
       const std::uint32_t cpuNode = cpu.found ? cpu.texel : kNoNodeMarker;
       if (cpu.found && decoded->normals.covered(i))
         agreement.maxNormalDegrees = std::max(agreement.maxNormalDegrees, angleDegrees(cpu.normal, decoded->normals.normal(i)));

@@ -125,7 +125,8 @@ AngularStats apoErrorAgainstScan(const ScanProbes& probes, const ApoTexture& apo
   std::vector<float> degrees(probes.positions.size());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, degrees.size(), 4096), [&](const auto& range) {
     for (std::size_t q = range.begin(); q < range.end(); ++q) {
-      const Lookup looked = lookupTextureFiltered(apo, apo.transform.toUnit(probes.positions[q]));
+      const Lookup looked =
+          lookupTextureFiltered(apo, apo.transform.toUnit(probes.positions[q]), probes.coarseNormals[q].normalized());
       // No answer: the APO shows nothing there, as far from right as can be.
       degrees[q] = looked.found ? static_cast<float>(angleDegrees(looked.normal, probes.truths[q])) : 180.0f;
     }

@@ -111,6 +111,7 @@ uniform uint widthMask;      // texture width - 1 (a power of two)
 uniform int widthShift;      // log2(texture width)
 uniform int completeDepth;
 uniform uint normalEncoding; // APO_ENCODING_XYZ8 or APO_ENCODING_OCT24
+uniform bool defersToCoarse; // format version 3: the reserved code shows m's own normal
 uniform float unitScale;     // unit = world * unitScale + unitOffset
 uniform vec3 unitOffset;
 uniform bool mipmapping;
@@ -181,14 +182,22 @@ Walk walk(vec3 P, int maxDepth, float distance) {
 
 vec3 unitPointOf(vec3 world) { return world * unitScale + unitOffset; }
 
-vec3 normalAt(Walk w) { return decodeNormal(texel(w.normalTexel).rgb); }
+// The node's normal, or m's own (`coarseNormal`, the fragment's) where a
+// version 3 leaf holds the reserved code.
+vec3 normalAt(Walk w, vec3 coarseNormal) {
+  uvec3 rgb = texel(w.normalTexel).rgb;
+  uint code = normalEncoding == APO_ENCODING_XYZ8 ? APO_COARSE_XYZ8 : APO_COARSE_OCT24;
+  if (defersToCoarse && (rgb.r | (rgb.g << 8) | (rgb.b << 16)) == code) return coarseNormal;
+  return decodeNormal(rgb);
+}
 
 // Paper 5.3: the normal blended trilinearly from the 8 cells around P at the
 // depth of P's own cell, each reached by its own walk; a neighbour that is
-// missing or stops more than one level higher gives P's own normal (format/'s
+// missing, stops more than one level higher, or faces away from m's normal
+// at P (the other side of a thin part) gives P's own normal (format/'s
 // lookupTextureFiltered does the same).
-vec3 filteredNormal(vec3 P, Walk own, float distance) {
-  vec3 ownNormal = normalAt(own);
+vec3 filteredNormal(vec3 P, Walk own, float distance, vec3 coarseNormal) {
+  vec3 ownNormal = normalAt(own, coarseNormal);
   float width = 1.0 / float(1u << uint(own.depth));
   vec3 lattice = P / width - 0.5;
   vec3 base = floor(lattice);
@@ -199,7 +208,8 @@ vec3 filteredNormal(vec3 P, Walk own, float distance) {
     vec3 weight3 = mix(1.0 - t, t, c);
     float weight = weight3.x * weight3.y * weight3.z;
     Walk w = walk((base + c + 0.5) * width, own.depth, distance);
-    sum += weight * (w.found && w.depth + 1 >= own.depth ? normalAt(w) : ownNormal);
+    vec3 neighbour = w.found ? normalAt(w, coarseNormal) : ownNormal;
+    sum += weight * (w.found && w.depth + 1 >= own.depth && dot(neighbour, coarseNormal) > 0.0 ? neighbour : ownNormal);
   }
   return normalize(sum);
 }
@@ -218,7 +228,10 @@ void main() {
   vec3 P = unitPointOf(worldPosition);
   float distance = length(eye - worldPosition);
   Walk w = walk(P, 255, distance);
-  vec3 n = !w.found ? normalize(worldNormal) : filtering ? filteredNormal(P, w, distance) : normalAt(w);
+  vec3 coarseNormal = normalize(worldNormal);
+  vec3 n = !w.found ? coarseNormal : normalAt(w, coarseNormal);
+  // A leaf showing m's normal shows it unblended (lookupTextureFiltered).
+  if (w.found && filtering && n != coarseNormal) n = filteredNormal(P, w, distance, coarseNormal);
   shaded = shade(n, worldPosition);
 #ifdef COUNT_FETCHES
   normalAndCoverage = vec4(float(fetchCount), 0.0, 0.0, 1.0);

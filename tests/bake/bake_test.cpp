@@ -158,10 +158,14 @@ TEST_F(BumpySphereBake, OnTheBumpsTheApoBeatsMsOwnNormals) {
 TEST_F(BumpySphereBake, AtTheBytesOfThePapersThresholdTheBudgetsApoIsCloserToM) {
   // The same bytes spent by the global order (the default) and by the
   // paper's threshold: the filtered lookup (what the renders show) at points
-  // of m against the analytic normal of M.
+  // of m against M's interpolated normal at the closest point of M (the
+  // measure of docs/benchmarks.md; the field the APO stores). At the paper's
+  // 0.01 (and 0.002); at 0.05 (42 KB) the budget's APO is 5% farther (0.248
+  // degrees against 0.236): its big leaves on the smooth sphere show m's
+  // normals, which their blended neighbours would beat (docs/bake.md).
   BakeOptions paper = testOptions();
   paper.budget = 0;
-  paper.error = 0.05;
+  paper.error = 0.01;
   auto byThreshold = bakeApo(*detail_, *coarse_, paper);
   ASSERT_TRUE(byThreshold.ok()) << byThreshold.error().message;
   BakeOptions budgeted = testOptions();
@@ -170,13 +174,19 @@ TEST_F(BumpySphereBake, AtTheBytesOfThePapersThresholdTheBudgetsApoIsCloserToM) 
   ASSERT_TRUE(byBudget.ok()) << byBudget.error().message;
   EXPECT_EQ(byBudget->report.refinement.stoppedBy, "budget");
   EXPECT_LE(apoFileBytes(byBudget->texture.usedTexels(), false), budgeted.budget);
+  const std::vector<Vec3f> points = pointsOnMesh(*coarse_, 40000, 5);
+  const auto coarseNormals = coarseNormalsAt(*coarse_, points);  // what leaves showing m's normal give
+  ASSERT_TRUE(coarseNormals.ok());
+  const auto truths = coarseNormalsAt(*detail_, points);  // M's normal at its closest point
+  ASSERT_TRUE(truths.ok());
   const auto meanError = [&](const ApoTexture& texture) {
     double sum = 0.0;
     int count = 0;
-    for (const Vec3f& p : pointsOnMesh(*coarse_, 40000, 5)) {
-      const Lookup found = lookupTextureFiltered(texture, texture.transform.toUnit(p));
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      const Vec3f& p = points[i];
+      const Lookup found = lookupTextureFiltered(texture, texture.transform.toUnit(p), (*coarseNormals)[i]);
       if (!found.found) continue;
-      sum += degreesBetween(found.normal, shape_->normal(p));
+      sum += degreesBetween(found.normal, (*truths)[i]);
       ++count;
     }
     EXPECT_GT(count, 39000);
@@ -257,9 +267,13 @@ TEST(Bake, PointsFromAScanGiveNormalsCloseToTheMeshBake) {
   ASSERT_TRUE(fromMesh.ok());
   double difference = 0.0, truthError = 0.0;
   const auto points = pointsOnMesh(coarse, 20000, 5);
-  for (const Vec3f& p : points) {
-    const Lookup a = lookupTexture(fromPoints->texture, fromPoints->texture.transform.toUnit(p));
-    const Lookup b = lookupTexture(fromMesh->texture, fromMesh->texture.transform.toUnit(p));
+  const auto coarseNormals = coarseNormalsAt(coarse, points);  // what leaves showing m's normal give
+  ASSERT_TRUE(coarseNormals.ok());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Vec3f& p = points[i];
+    const Vec3f& m = (*coarseNormals)[i];
+    const Lookup a = lookupTexture(fromPoints->texture, fromPoints->texture.transform.toUnit(p), 255, m);
+    const Lookup b = lookupTexture(fromMesh->texture, fromMesh->texture.transform.toUnit(p), 255, m);
     ASSERT_TRUE(a.found && b.found);
     difference += degreesBetween(a.normal, b.normal);
     truthError += degreesBetween(a.normal, shape.normal(p));

@@ -3,6 +3,7 @@
 #include "bake/bake.h"
 #include "format/format.h"
 #include "ingest/ingest.h"
+#include "pipeline/bake_seams.h"
 #include "tests/bake/bumpy_sphere.h"
 #include "tests/test_support.h"
 
@@ -79,8 +80,15 @@ TEST(LookupCommand, GivesTheBakedNormalPerPointAndZeroOutside) {
   std::vector<Vec3f> points = {Vec3f(0.3f, 0.0f, 0.93f).normalized() * 0.99f, Vec3f(0.0f, 0.25f, -0.95f).normalized() * 0.99f};
   test::writeBytes(in.dir / "points.xyz", fmt::format("{} {} {}\n{} {} {}\n5 5 5\n", points[0].x(), points[0].y(),
                                                      points[0].z(), points[1].x(), points[1].y(), points[1].z()));
-  const auto result = apo(fmt::format("lookup '{}' '{}' -o '{}'", (out / "scan.apo").string(),
-                                      (in.dir / "points.xyz").string(), (in.dir / "normals.xyz").string()));
+  const std::string lookup = fmt::format("lookup '{}' '{}' -o '{}'", (out / "scan.apo").string(),
+                                         (in.dir / "points.xyz").string(), (in.dir / "normals.xyz").string());
+  // Where m alone is closer to M than a leaf, the leaf shows m's normal
+  // (format version 3): the lookup needs m then, and says so.
+  const auto withoutM = apo(lookup);
+  ASSERT_TRUE(readApoFile(out / "scan.apo")->defersToCoarse);
+  EXPECT_EQ(withoutM.exitCode, 1);
+  EXPECT_THAT(withoutM.output, HasSubstr("--coarse"));
+  const auto result = apo(lookup + fmt::format(" --coarse '{}'", in.coarse.string()));
   ASSERT_EQ(result.exitCode, 0) << result.output;
   std::ifstream normals(in.dir / "normals.xyz");
   for (const Vec3f& p : points) {
@@ -109,23 +117,29 @@ TEST(LookupCommand, FilterGivesTheFilteredLookupOfTheReport) {
   test::writeBytes(in.dir / "points.xyz", xyz);
   const auto texture = readApoFile(out / "scan.apo");
   ASSERT_TRUE(texture.ok());
+  const auto m = readScan(in.coarse);
+  ASSERT_TRUE(m.ok());
+  const auto coarseNormals = coarseNormalsAt(*m, points);
+  ASSERT_TRUE(coarseNormals.ok());
   for (const bool filtered : {true, false}) {
     const fs::path normalsPath = in.dir / (filtered ? "filtered.xyz" : "plain.xyz");
-    const auto result = apo(fmt::format("lookup '{}' '{}' -o '{}' {}", (out / "scan.apo").string(),
-                                        (in.dir / "points.xyz").string(), normalsPath.string(), filtered ? "--filter" : ""));
+    const auto result = apo(fmt::format("lookup '{}' '{}' -o '{}' --coarse '{}' {}", (out / "scan.apo").string(),
+                                        (in.dir / "points.xyz").string(), normalsPath.string(), in.coarse.string(),
+                                        filtered ? "--filter" : ""));
     ASSERT_EQ(result.exitCode, 0) << result.output;
     std::ifstream normals(normalsPath);
     std::size_t differing = 0;
-    for (const Vec3f& p : points) {
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      const Vec3f& p = points[i];
       Vec3f n;
       normals >> n.x() >> n.y() >> n.z();
       const Vec3f unit = texture->transform.toUnit(p);
-      const Lookup expected = lookupTextureFiltered(*texture, unit);
+      const Lookup expected = lookupTextureFiltered(*texture, unit, (*coarseNormals)[i]);
       ASSERT_TRUE(expected.found);
       if (filtered) {
         EXPECT_LT((n - expected.normal).norm(), 1e-6f) << p.transpose();
       } else {
-        EXPECT_LT((n - lookupTexture(*texture, unit).normal).norm(), 1e-6f) << p.transpose();
+        EXPECT_LT((n - lookupTexture(*texture, unit, 255, (*coarseNormals)[i]).normal).norm(), 1e-6f) << p.transpose();
         differing += (n - expected.normal).norm() > 1e-3f;
       }
     }

@@ -195,8 +195,8 @@ TEST(ApoFile, BadIdentityFields) {
   mangled.erase(4, 1);
   expectRejected(mangled, "(magic)");
   std::string version = good;
-  patch<std::uint32_t>(version, kVersionAt, 3);
-  expectRejected(version, "byte 8 (format version): expected 1 or 2 (the versions this reader knows), found 3");
+  patch<std::uint32_t>(version, kVersionAt, 4);
+  expectRejected(version, "byte 8 (format version): expected 1 to 3 (the versions this reader knows), found 4");
   std::string claimsTwo = good;
   patch<std::uint32_t>(claimsTwo, kVersionAt, 2);
   expectRejected(claimsTwo, "byte 16 (header size): expected 160 for format version 2, found 128");
