@@ -138,7 +138,7 @@ bake() {
   rm "$dir/scan.first.apo"
   if [ -n "${reference[$name]:-}" ]; then
     local probe=${probes[$name]}
-    $apo -q lookup "$dir/scan.apo" "$probe.xyz" -o "$dir/probe_normals.xyz" >>"$out/log.txt" 2>&1
+    $apo -q lookup "$dir/scan.apo" "$probe.xyz" -o "$dir/probe_normals.xyz" --coarse "${coarse[$name]}" >>"$out/log.txt" 2>&1
     $tool compare "${reference[$name]}" "$probe.xyz" "${probe}_mnormals.xyz" "$dir/probe_normals.xyz" \
       >"$dir/quality.json" 2>>"$out/log.txt"
   fi

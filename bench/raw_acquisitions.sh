@@ -128,7 +128,7 @@ for frame in table_scene_mug_stereo_textured milk_cartoon_all_small_clorox; do
     run="$out/depth-$frame-$variant"
     read -r s mem < <(measure $apo -q run "$input" -o "$run" $flags)
     eval_lines=$(/usr/bin/python3 ../shared/tools/scan_eval.py "$out/depth-$frame-truth/scan.ply" "$run/m.ply" \
-      "$apo -q lookup {apo} {points} -o {out}" "$run/scan.apo" | tail -n 2)
+      "$apo -q lookup {apo} {points} -o {out} --coarse $run/m.ply" "$run/scan.apo" | tail -n 2)
     python3 - "$run/manifest.json" "$frame" "$variant" "$s" "$mem" "$eval_lines" <<'PY'
 import json, sys
 r = json.load(open(sys.argv[1]))["results"]
