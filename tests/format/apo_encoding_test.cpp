@@ -417,5 +417,74 @@ TEST(DecodeApo, CorruptTexturesNeverCrashIt) {
   }
 }
 
+
+// ---- Leaves that show m's own normal (format version 3) ---------------------
+
+// The tiny tree with its leaf {3, 6} (normal -z) showing m's normal.
+Octree tinyTreeShowingM() {
+  Octree octree = tinyTree();
+  for (OctreeNode& node : octree.nodes)
+    if (node.isLeaf() && node.normal.z() < -0.5f) node.coarseNormal = true;
+  return octree;
+}
+
+TEST(LeavesShowingM, HoldTheReservedCodeAndAnswerTheCallersNormal) {
+  const Vec3f inShowingLeaf(0.625f, 0.125f, 0.375f), elsewhere(0.875f, 0.375f, 0.125f);
+  const Vec3f m = Vec3f(1.0f, 2.0f, 2.0f).normalized();
+  for (const NormalEncoding encoding : {NormalEncoding::Xyz8, NormalEncoding::Oct24}) {
+    const ApoTexture texture = encodeOrDie(tinyTreeShowingM(), 0, encoding);
+    EXPECT_TRUE(texture.defersToCoarse);
+    // Texel 8 is the leaf {3, 6} (LookupTexture.TinyTreeByHand).
+    const std::uint32_t code = encoding == NormalEncoding::Xyz8 ? 0x808080u : 0x000FFFu;
+    const std::array<std::uint8_t, 4> expected = {static_cast<std::uint8_t>(code & 0xFF),
+                                                  static_cast<std::uint8_t>((code >> 8) & 0xFF),
+                                                  static_cast<std::uint8_t>(code >> 16), 0};
+    EXPECT_EQ(texelsOf(texture)[8], expected);
+    const Lookup shown = lookupTexture(texture, inShowingLeaf, 255, m);
+    EXPECT_TRUE(shown.found && shown.coarse);
+    EXPECT_EQ(shown.normal, m);
+    EXPECT_EQ(lookupTexture(texture, inShowingLeaf).normal, Vec3f::Zero());  // no m given: nothing to answer
+    const Lookup filtered = lookupTextureFiltered(texture, inShowingLeaf, m);
+    EXPECT_EQ(filtered.normal, m) << "a leaf showing m shows it unblended";
+    const Lookup other = lookupTexture(texture, elsewhere, 255, m);
+    EXPECT_FALSE(other.coarse);
+    EXPECT_GT(other.normal.dot(-Vec3f::UnitY()), 0.9999f);
+    // Decoded, the leaf still says so.
+    const Result<Octree> decoded = decodeApo(texture);
+    ASSERT_TRUE(decoded.ok()) << decoded.error().message;
+    EXPECT_EQ(std::count_if(decoded->nodes.begin(), decoded->nodes.end(), [](const OctreeNode& n) { return n.coarseNormal; }), 1);
+  }
+}
+
+TEST(LeavesShowingM, WithoutThemTheCodesAreNormalsAndNoNormalIsEncodedToThem) {
+  // A texture without leaves showing m (versions 1 and 2) reads the oct24
+  // code as the direction it decodes to, -z.
+  ApoTexture texture = encodeOrDie(tinyTreeShowingM(), 0, NormalEncoding::Oct24);
+  texture.defersToCoarse = false;
+  const Lookup plain = lookupTexture(texture, {0.625f, 0.125f, 0.375f}, 255, Vec3f::UnitX());
+  EXPECT_FALSE(plain.coarse);
+  EXPECT_GT(plain.normal.dot(-Vec3f::UnitZ()), 0.9999f);
+  // Directions around -z, where the octahedral fold meets the code's corner.
+  std::mt19937 random(7);
+  std::normal_distribution<float> jitter(0.0f, 1e-3f);
+  for (int i = 0; i < 100000; ++i) {
+    const Vec3f n = Vec3f(jitter(random), jitter(random), -1.0f).normalized();
+    for (const NormalEncoding encoding : {NormalEncoding::Xyz8, NormalEncoding::Oct24}) {
+      const auto bytes = encodeNormal(n, encoding);
+      const std::uint32_t value = bytes[0] | bytes[1] << 8 | bytes[2] << 16;
+      ASSERT_NE(value, texel::coarseCode(encoding == NormalEncoding::Xyz8)) << n.transpose();
+    }
+  }
+}
+
+TEST(LeavesShowingM, AnInternalNodeHoldingTheCodeIsRefused) {
+  ApoTexture texture = encodeOrDie(tinyTreeShowingM(), 0, NormalEncoding::Xyz8);
+  // Texel 2 is the root's normal texel (the root is internal at texel 1).
+  for (int channel = 0; channel < 3; ++channel) texture.texels[4 * 2 + channel] = 0x80;
+  const Result<Octree> decoded = decodeApo(texture);
+  ASSERT_FALSE(decoded.ok());
+  EXPECT_THAT(decoded.error().message, HasSubstr("only leaves hold"));
+}
+
 }  // namespace
 }  // namespace apo

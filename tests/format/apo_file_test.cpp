@@ -208,6 +208,27 @@ TEST(ApoFile, BadIdentityFields) {
   expectRejected(headerSize, "byte 16 (header size): expected 128 for format version 1, found 136");
 }
 
+// Version 3 (leaves showing m's normal): version 2's header, written only
+// when some leaf shows m, whatever the origin; read back as such.
+TEST(ApoFile, LeavesShowingMMakeAVersion3File) {
+  Octree octree = test::octreeFromPaths({{0}, {3, 1}, {3, 6}, {7}}, [](const test::ChildPath& path) {
+    return Vec3f(1.0f, static_cast<float>(path.size()), 0.0f).normalized();
+  });
+  octree.nodes.back().coarseNormal = true;  // a leaf: the last brood's last child
+  ASSERT_TRUE(octree.nodes.back().isLeaf());
+  Result<ApoTexture> texture = encodeApo(octree, 0, NormalEncoding::Xyz8, 1, 2);
+  ASSERT_TRUE(texture.ok()) << texture.error().message;
+  const std::string bytes = writtenBytes(*texture);
+  EXPECT_EQ(fieldAt<std::uint32_t>(bytes, kVersionAt), 3u);
+  EXPECT_EQ(fieldAt<std::uint32_t>(bytes, kHeaderSizeAt), 160u);
+  EXPECT_EQ(fieldAt<double>(bytes, 128), 0.0);
+  EXPECT_EQ(bytes.size(), 160u + texture->texels.size());
+  const Result<ApoTexture> read = parseApoFile(bytes);
+  ASSERT_TRUE(read.ok()) << read.error().message;
+  EXPECT_TRUE(read->defersToCoarse);
+  EXPECT_FALSE(parseApoFile(writtenBytes(tinyTexture()))->defersToCoarse);
+}
+
 // Version 2 (a scan in a local frame): the version-1 header, then the
 // origin at 128, 136 and 144 and 8 reserved zero bytes; the payload at 160.
 TEST(ApoFile, AnOriginMakesAVersion2FileThatReadsBack) {
