@@ -179,13 +179,15 @@ octree::DetailPrimitives detailForErrorMetric(const DetailSurface& surface, cons
   return detail;
 }
 
-// The most texels whose .apo file fits `budget` bytes (0: no cap).
-std::uint64_t budgetTexels(std::uint64_t budget, bool withOrigin) {
+// The most texels whose .apo file fits `budget` bytes (0: no cap), counting
+// the 160-byte header of versions 2 and 3 (a budgeted bake may let leaves
+// show m's normals: version 3).
+std::uint64_t budgetTexels(std::uint64_t budget) {
   if (budget == 0) return 0;
   std::uint64_t fits = 0, over = std::uint64_t{1} << 32;  // apoFileBytes grows with the texels
   while (over - fits > 1) {
     const std::uint64_t middle = fits + (over - fits) / 2;
-    (apoFileBytes(middle, withOrigin) <= budget ? fits : over) = middle;
+    (apoFileBytes(middle, true) <= budget ? fits : over) = middle;
   }
   return std::max<std::uint64_t>(fits, 1);
 }
@@ -236,9 +238,8 @@ Result<Bake> bakeWith(const DetailSurface& detail, const CoarseSurface& coarseSu
   const std::vector<Vec3f> coarseNormals =
       coarse.points.normals.size() == coarse.points.size() ? coarse.points.normals : areaWeightedVertexNormals(coarse);
   const float reach = static_cast<float>(options.maxDistance * box.diagonal());
-  // The budget counts the 160-byte header of versions 2 and 3 (a budgeted
-  // bake may let leaves show m's normals: version 3).
-  const bool withOrigin = true;
+  const int completeDepth = options.completeDepth < 0 ? options.coarseDepth : options.completeDepth;
+  const std::uint64_t maxTexels = budgetTexels(options.budget);
   octree::BuiltOctree built;
   {
     const octree::DetailPrimitives primitives =
@@ -246,17 +247,16 @@ Result<Bake> bakeWith(const DetailSurface& detail, const CoarseSurface& coarseSu
     report.seconds.setup += phase.seconds();
     reportProgress(onProgress, kBuildStart);
     phase = Stopwatch();
-    const int completeDepth = options.completeDepth < 0 ? options.coarseDepth : options.completeDepth;
     // Leaves show m's normals where those are closer, with a budget; with
     // none, the tree is the paper's.
     built = octree::buildOctree(coarseUnit, primitives,
-                                {options.coarseDepth, options.maxDepth, options.error,
-                                 budgetTexels(options.budget, withOrigin), completeDepth, options.budget > 0});
+                                {options.coarseDepth, options.maxDepth, options.error, maxTexels, completeDepth,
+                                 options.budget > 0});
   }
-  if (options.budget > 0 && built.refinement.texels > budgetTexels(options.budget, withOrigin))
+  if (options.budget > 0 && built.refinement.texels > maxTexels)
     return usageError("--budget {} bytes is below the {} bytes of the octree's complete levels (--coarse-depth {}): raise "
                       "--budget or lower --coarse-depth",
-                      options.budget, apoFileBytes(built.refinement.texels, withOrigin),
+                      options.budget, apoFileBytes(built.refinement.texels, true),
                       options.coarseDepth);
   report.refinement = refinementReport(built.refinement, options);
   built.octree.transform = transform;
@@ -283,7 +283,6 @@ Result<Bake> bakeWith(const DetailSurface& detail, const CoarseSurface& coarseSu
                counts.fallbacks, report.seconds.sample);
 
   phase = Stopwatch();
-  const int completeDepth = options.completeDepth < 0 ? options.coarseDepth : options.completeDepth;
   auto texture = encodeApo(built.octree, completeDepth, options.encoding, static_cast<std::uint8_t>(options.coarseDepth),
                            static_cast<std::uint8_t>(options.maxDepth));
   if (!texture) return texture.error();
