@@ -200,6 +200,7 @@ RefinementReport refinementReport(const octree::RefinementOutcome& outcome, cons
   report.l21 = outcome.error;
   report.rmsDegrees = outcome.rmsDegrees();
   report.leavesShowingCoarse = outcome.leavesShowingCoarse;
+  report.twoSidedLeaves = outcome.twoSidedLeaves;
   report.leavesAtMaxDepth = outcome.leavesAtMaxDepth;
   return report;
 }
@@ -247,11 +248,11 @@ Result<Bake> bakeWith(const DetailSurface& detail, const CoarseSurface& coarseSu
     report.seconds.setup += phase.seconds();
     reportProgress(onProgress, kBuildStart);
     phase = Stopwatch();
-    // Leaves show m's normals where those are closer, with a budget; with
-    // none, the tree is the paper's.
+    // Leaves show m's normals where those are closer, or two normals where
+    // m's sides part M's, with a budget; with none, the tree is the paper's.
     built = octree::buildOctree(coarseUnit, primitives,
                                 {options.coarseDepth, options.maxDepth, options.error, maxTexels, completeDepth,
-                                 options.budget > 0});
+                                 options.budget > 0, options.budget > 0 && options.twoSidedLeaves});
   }
   if (options.budget > 0 && built.refinement.texels > maxTexels)
     return usageError("--budget {} bytes is below the {} bytes of the octree's complete levels (--coarse-depth {}): raise "

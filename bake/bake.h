@@ -44,6 +44,10 @@ struct BakeOptions {
   int samples = 1;           // ray origins per (leaf, triangle of m): 1, the paper's closest point to the centre; K > 1 stratified
   int completeDepth = -1;    // -1: coarseDepth
   NormalEncoding encoding = NormalEncoding::Oct24;
+  // With a budget, leaves may show one normal per side of m (thin parts;
+  // format version 4, docs/bake.md "Two-sided leaves"); false: one normal
+  // per leaf, as in the paper.
+  bool twoSidedLeaves = true;
 };
 
 struct BakePhaseSeconds {
@@ -57,7 +61,7 @@ struct RefinementReport {
   std::string stoppedBy;           // "budget", "error" or "converged"
   double l21 = 0.0;                // sum over the leaves
   double rmsDegrees = 0.0;         // M's normals about their leaf's mean
-  std::uint64_t leavesShowingCoarse = 0, leavesAtMaxDepth = 0;
+  std::uint64_t leavesShowingCoarse = 0, twoSidedLeaves = 0, leavesAtMaxDepth = 0;
 };
 
 struct BakeReport {

@@ -13,7 +13,9 @@
 #include <bit>
 #include <deque>
 #include <cmath>
+#include <limits>
 #include <numbers>
+#include <tuple>
 #include <utility>
 
 namespace apo::octree {
@@ -115,11 +117,9 @@ double squaredIntegral(double a, const Eigen::Vector3d& f0, const Eigen::Vector3
 
 // Running sums for the L2,1 integral: over pieces of area a with mean normal
 // mu and internal variance v, sum a |mu - n|^2 + a v expands into these.
-// `coarse` sums the integral of |n(x) - r(x)|^2, r m's normal field.
-struct VariationSums {
+struct Moments {
   double area = 0.0, areaMeanSquared = 0.0, areaVariance = 0.0;
   Eigen::Vector3d areaMean = Eigen::Vector3d::Zero();
-  double coarse = 0.0;
 
   void add(double a, const Eigen::Vector3d& mean, double variance) {
     area += a;
@@ -128,15 +128,9 @@ struct VariationSums {
     areaVariance += a * variance;
   }
 
-  // A linearly interpolated field over a triangle: its mean is the corners'
-  // mean and its variance a twelfth of the corners' squared deviations; m's
-  // field `r` (null when unknown) is linear too.
-  void addTriangle(double a, const Vec3f& n0, const Vec3f& n1, const Vec3f& n2, const std::array<Vec3f, 3>* r) {
-    const Eigen::Vector3d m0 = n0.cast<double>(), m1 = n1.cast<double>(), m2 = n2.cast<double>();
-    const Eigen::Vector3d mean = (m0 + m1 + m2) / 3.0;
-    add(a, mean, ((m0 - mean).squaredNorm() + (m1 - mean).squaredNorm() + (m2 - mean).squaredNorm()) / 12.0);
-    if (r)
-      coarse += squaredIntegral(a, m0 - (*r)[0].cast<double>(), m1 - (*r)[1].cast<double>(), m2 - (*r)[2].cast<double>());
+  Moments operator-(const Moments& other) const {
+    return {area - other.area, areaMeanSquared - other.areaMeanSquared, areaVariance - other.areaVariance,
+            areaMean - other.areaMean};
   }
 
   double l21() const {
@@ -145,7 +139,55 @@ struct VariationSums {
     const double unitArea = norm > 0.0 ? area : 0.0;   // |n|^2 sum(a)
     return std::max(0.0, areaMeanSquared - 2.0 * alongMean + unitArea + areaVariance);
   }
+};
 
+// The L2,1 sums of a cell, and those a two-sided leaf needs: per axis, the
+// pieces where m's normal has a non-negative coordinate on it (format.h
+// leafSide; the rest is the other side). `coarse` sums the integral of
+// |n(x) - r(x)|^2, r m's normal field.
+struct VariationSums {
+  Moments all;
+  std::array<Moments, 3> sideZero;
+  double coarse = 0.0;
+
+  // A piece of M whose m normal (mean over the piece) is `coarseMean`, null
+  // when unknown.
+  void add(double a, const Eigen::Vector3d& mean, double variance, const Eigen::Vector3d* coarseMean) {
+    all.add(a, mean, variance);
+    if (!coarseMean) return;
+    for (int axis = 0; axis < 3; ++axis)
+      if (leafSide(coarseMean->cast<float>(), axis) == 0) sideZero[axis].add(a, mean, variance);
+  }
+
+  // A linearly interpolated field over a triangle: its mean is the corners'
+  // mean and its variance a twelfth of the corners' squared deviations; m's
+  // field `r` (null when unknown) is linear too.
+  void addTriangle(double a, const Vec3f& n0, const Vec3f& n1, const Vec3f& n2, const std::array<Vec3f, 3>* r) {
+    const Eigen::Vector3d m0 = n0.cast<double>(), m1 = n1.cast<double>(), m2 = n2.cast<double>();
+    const Eigen::Vector3d mean = (m0 + m1 + m2) / 3.0;
+    const double variance = ((m0 - mean).squaredNorm() + (m1 - mean).squaredNorm() + (m2 - mean).squaredNorm()) / 12.0;
+    if (!r) {
+      add(a, mean, variance, nullptr);
+      return;
+    }
+    const Eigen::Vector3d r0 = (*r)[0].cast<double>(), r1 = (*r)[1].cast<double>(), r2 = (*r)[2].cast<double>();
+    const Eigen::Vector3d coarseMean = (r0 + r1 + r2) / 3.0;
+    add(a, mean, variance, &coarseMean);
+    coarse += squaredIntegral(a, m0 - r0, m1 - r1, m2 - r2);
+  }
+
+  double l21() const { return all.l21(); }
+
+  // The axis whose two sides leave the least L2,1, and that L2,1 (each side
+  // against its own mean normal).
+  std::pair<int, double> bestTwoSides() const {
+    std::pair<int, double> best{0, std::numeric_limits<double>::infinity()};
+    for (int axis = 0; axis < 3; ++axis) {
+      const double error = sideZero[axis].l21() + (all - sideZero[axis]).l21();
+      if (error < best.second) best = {axis, error};
+    }
+    return best;
+  }
 };
 
 double triangleArea(const Vec3f& a, const Vec3f& b, const Vec3f& c) {
@@ -197,37 +239,58 @@ double squaredRadians(double degrees) {
   return radians * radians;
 }
 
-// What a leaf costs in error: its L2,1 and the same integral against m's
-// normals, and M's area in it. The refinement ranks splits by the L2,1
-// (ranking by the smaller of the two stopped refining where m was close
+// A leaf shows two normals, one per side of m (format version 4), where
+// they leave less than this share of its one normal's error: thin parts,
+// where the one normal averages opposite sides, leave far less. Measured
+// (docs/benchmarks.md, "Two-sided leaves"): at 0.5, many leaves of merely
+// curved cells took the second texel and the bundled meshes lost 0.3-2% at
+// 3 MiB; at 0.2, none lost and camel.off at 256 KiB gained 8.5%.
+constexpr double kTwoSidedAdvantage = 0.2;
+
+// What a leaf costs in error: its L2,1, the same with one normal per side
+// of m, and the integral against m's normals, and M's area in it. The
+// refinement ranks splits by the L2,1 of what the leaf would show of M
+// (ranking by the smaller of that and m's stopped refining where m was close
 // but a finer APO closer still: bumpy sphere at 42 KB, 0.274 degrees
 // against 0.236 for the paper's threshold); with `deferToCoarse`, a leaf
 // where m is far closer shows m's normals when it stops.
 struct LeafError {
   double variation = 0.0, coarse = 0.0, area = 0.0;
+  double twoSided = std::numeric_limits<double>::infinity();  // infinite where a leaf may not be two-sided
+  int sideAxis = 0;
   bool deferToCoarse = false;
 
-  bool showsCoarse() const { return deferToCoarse && coarse < kCoarseAdvantage * variation; }
-  double shown() const { return showsCoarse() ? coarse : variation; }
+  bool twoSidesPay() const { return twoSided < kTwoSidedAdvantage * variation; }
+  // The L2,1 of what the leaf shows of M: one normal or two.
+  double ranked() const { return twoSidesPay() ? twoSided : variation; }
+  bool showsCoarse() const { return deferToCoarse && coarse < kCoarseAdvantage * ranked(); }
+  bool showsTwoSides() const { return twoSidesPay() && !showsCoarse(); }
+  double shown() const { return showsCoarse() ? coarse : ranked(); }
+  std::uint64_t texels() const { return showsTwoSides() ? 2 : 1; }
   bool negligible() const {
-    return variation <= area * squaredRadians(kNegligibleDegrees) ||
+    return ranked() <= area * squaredRadians(kNegligibleDegrees) ||
            (deferToCoarse && coarse <= area * squaredRadians(kCoarseExactDegrees));
   }
 };
 
+// `twoSides`: whether the leaf may show two normals (it needs m's normals,
+// and a parent's kind bit: below the completion depth).
 LeafError errorInCell(const DetailPrimitives& detail, const std::vector<std::uint32_t>& primitives, const Cell& cell,
-                      bool deferToCoarse) {
+                      bool deferToCoarse, bool twoSides) {
   VariationSums sums;
+  const bool withCoarse = !detail.coarseNormals.empty();
   for (const std::uint32_t i : primitives) {
-    if (detail.triangles.empty())
-    {
-      sums.add(detail.weights[i], detail.normals[i].cast<double>(), 0.0);
-      if (!detail.coarseNormals.empty())
-        sums.coarse += detail.weights[i] * (detail.normals[i] - detail.coarseNormals[i]).cast<double>().squaredNorm();
+    if (detail.triangles.empty()) {
+      const Eigen::Vector3d coarse = withCoarse ? Eigen::Vector3d(detail.coarseNormals[i].cast<double>()) : Eigen::Vector3d::Zero();
+      sums.add(detail.weights[i], detail.normals[i].cast<double>(), 0.0, withCoarse ? &coarse : nullptr);
+      if (withCoarse) sums.coarse += detail.weights[i] * (detail.normals[i].cast<double>() - coarse).squaredNorm();
     } else
       addTriangleInCell(detail, i, cell, sums);
   }
-  return {sums.l21(), sums.coarse, sums.area, deferToCoarse && !detail.coarseNormals.empty()};
+  LeafError error{sums.l21(), sums.coarse, sums.all.area};
+  error.deferToCoarse = deferToCoarse && withCoarse;
+  if (twoSides && withCoarse) std::tie(error.sideAxis, error.twoSided) = sums.bestTwoSides();
+  return error;
 }
 
 // Children of `cell` whose closed box meets the bounds: on each axis the
@@ -355,7 +418,12 @@ struct Candidate {
   double gain = 0.0;           // L2,1 removed by the split
   double largestChildError = 0.0;
 
-  std::uint64_t texels() const { return 1 + children.size(); }  // leaf (1) -> internal (2) + children
+  // The leaf's 1 or 2 texels become an internal node's 2, plus the children's.
+  std::uint64_t texels() const {
+    std::uint64_t texels = 2 - leaf.error.texels();
+    for (const Leaf& child : children) texels += child.error.texels();
+    return texels;
+  }
   // What the split is worth: the error it removes, or, when it removes
   // little because M's part stays in one child (m crosses a corner of the
   // cell, M lies along one side), the error it opens to the next split.
@@ -417,18 +485,23 @@ class Refinement {
         child.cell = cell.child(c);
         child.triangles = std::move(childTriangles[c]);
         child.primitives = std::move(childPrimitives[c]);
-        child.error = errorInCell(detail_, child.primitives, child.cell, settings_.deferToCoarse);
-        childError += child.error.variation;
-        candidate.largestChildError = std::max(candidate.largestChildError, child.error.variation);
+        child.error = errorOf(child);
+        childError += child.error.ranked();
+        candidate.largestChildError = std::max(candidate.largestChildError, child.error.ranked());
         candidate.children.push_back(std::move(child));
       }
-      candidate.gain = leaf.error.variation - childError;
+      candidate.gain = leaf.error.ranked() - childError;
       // M's primitives are needed by the error metric only (the rays are
       // cast against all of M): a leaf that splits keeps none.
       std::vector<std::uint32_t>().swap(leaf.primitives);
     }
     candidate.leaf = std::move(leaf);
     return candidate;
+  }
+
+  LeafError errorOf(const Leaf& leaf) const {
+    return errorInCell(detail_, leaf.primitives, leaf.cell, settings_.deferToCoarse,
+                       settings_.twoSidedLeaves && leaf.cell.depth > settings_.completeDepth);
   }
 
   // A split worth making: some of m below, and worth something.
@@ -583,7 +656,7 @@ Eigen::Vector3f barycentricsOf(const Vec3f& p, const Vec3f& a, const Vec3f& b, c
 }
 
 double normalVariation(const DetailPrimitives& detail, const std::vector<std::uint32_t>& primitives, const Cell& cell) {
-  return errorInCell(detail, primitives, cell, false).variation;
+  return errorInCell(detail, primitives, cell, false, false).variation;
 }
 
 double RefinementOutcome::rmsDegrees() const {
@@ -599,12 +672,14 @@ class FinishedLeaves {
   FinishedLeaves(int maxDepth) : maxDepth_(maxDepth) {}
 
   void add(const Leaf& leaf, RefinementOutcome& outcome) {
-    records_.push_back(
-        {leaf.node, triangles_.size(), static_cast<std::uint32_t>(leaf.triangles.size()), leaf.error.showsCoarse()});
+    records_.push_back({leaf.node, triangles_.size(), static_cast<std::uint32_t>(leaf.triangles.size()),
+                        leaf.error.showsCoarse(), leaf.error.showsTwoSides(),
+                        static_cast<std::uint8_t>(leaf.error.sideAxis)});
     triangles_.insert(triangles_.end(), leaf.triangles.begin(), leaf.triangles.end());
     outcome.error += leaf.error.shown();
     outcome.area += leaf.error.area;
     outcome.leavesShowingCoarse += leaf.error.showsCoarse() ? 1 : 0;
+    outcome.twoSidedLeaves += leaf.error.showsTwoSides() ? 1 : 0;
     outcome.leavesAtMaxDepth += leaf.cell.depth >= maxDepth_ ? 1 : 0;
   }
 
@@ -621,6 +696,8 @@ class FinishedLeaves {
       if (recordOf[n] == kNotALeaf) continue;
       const Record& record = records_[recordOf[n]];
       built.octree.nodes[n].coarseNormal = record.showsCoarse;
+      built.octree.nodes[n].twoSided = record.twoSided;
+      built.octree.nodes[n].sideAxis = record.sideAxis;
       const auto first = triangles_.begin() + static_cast<std::ptrdiff_t>(record.begin);
       built.leafTriangles.insert(built.leafTriangles.end(), first, first + record.count);
     }
@@ -632,7 +709,8 @@ class FinishedLeaves {
     std::uint32_t node;
     std::uint64_t begin;
     std::uint32_t count;
-    bool showsCoarse;
+    bool showsCoarse, twoSided;
+    std::uint8_t sideAxis;
   };
   int maxDepth_;
   std::vector<Record> records_;
@@ -654,8 +732,9 @@ class GlobalRefinement {
   // The coarse cells, their errors computed in parallel.
   void start(std::vector<Leaf> leaves) {
     tbb::parallel_for(std::size_t{0}, leaves.size(), [&](std::size_t i) {
-      leaves[i].error = errorInCell(detail_, leaves[i].primitives, leaves[i].cell, settings_.deferToCoarse);
+      leaves[i].error = refinement_.errorOf(leaves[i]);
     });
+    for (const Leaf& leaf : leaves) outcome_.texels += leaf.error.texels() - 1;
     for (Leaf& leaf : leaves) file(std::move(leaf));
   }
 
@@ -736,13 +815,14 @@ class GlobalRefinement {
 
   void enqueue(Candidate candidate, bool evaluated) {
     const LeafError& error = candidate.leaf.error;
-    // Unevaluated: a split adds at least 2 texels and is worth at most the
-    // leaf's error and excess, so their half bounds its key, and the first
-    // evaluated entry on top is the best split of all (the greedy order;
-    // rounds of many entries stay close to it). Tighter guesses (the
-    // parent's ratio) evaluated half as many leaves but lost 2-4% of the
-    // accuracy on bunny00.
-    const double key = evaluated ? candidate.valuePerTexel() : error.variation / 2.0;
+    // Unevaluated: a split is worth at most the leaf's one-normal L2,1 (its
+    // gain, or a child's error) and adds at least 2 texels (1 to a two-sided
+    // leaf), so that ratio bounds its key, and the first evaluated entry on
+    // top is the best split of all (the greedy order; rounds of many entries
+    // stay close to it). Tighter guesses (the parent's ratio) evaluated half
+    // as many leaves but lost 2-4% of the accuracy on bunny00.
+    const double key =
+        evaluated ? candidate.valuePerTexel() : error.variation / static_cast<double>(3 - error.texels());
     queue_.push_back({evaluated, key, candidate.leaf.node, put(std::move(candidate))});
     std::push_heap(queue_.begin(), queue_.end(), QueueEntry::after);
   }

@@ -83,6 +83,10 @@ struct BuildSettings {
   // Leaves where m's own normals are closer to M than the leaf's one normal
   // show m's (OctreeNode::coarseNormal), and their error is m's.
   bool deferToCoarse = false;
+  // Leaves below the completion depth may show one normal per side of m
+  // (OctreeNode::twoSided) where that leaves far less error; needs m's
+  // normals (DetailPrimitives::coarseNormals).
+  bool twoSidedLeaves = false;
 };
 
 // A leaf whose normals deviate from their mean by less than this (root mean
@@ -97,6 +101,7 @@ struct RefinementOutcome {
   double error = 0.0;                // sum over leaves of their L2,1 (units of M's mean area)
   double area = 0.0;                 // M's area in the leaves, same units
   std::uint64_t leavesShowingCoarse = 0;  // leaves that show m's own normal (deferToCoarse)
+  std::uint64_t twoSidedLeaves = 0;       // leaves that show one normal per side of m
   std::uint64_t leavesAtMaxDepth = 0;
   // Root mean square deviation of M's normals from their leaf's mean, in degrees.
   double rmsDegrees() const;

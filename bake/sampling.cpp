@@ -2,7 +2,8 @@
 // triangle t of m in C, rays start on t inside C along m's interpolated
 // normal, both ways; the nearest hit on M gives M's interpolated normal
 // there, and a miss falls back to M's closest point. A leaf's normal is the
-// mean of its samples weighted by the area of t inside C.
+// mean of its samples weighted by the area of t inside C; a two-sided leaf's
+// sides are the means of the samples whose m normal picks each side.
 #include "bake/sampling.h"
 
 #include "core/triangle_geometry.h"
@@ -211,6 +212,7 @@ SampleCounts sampleNormalField(octree::BuiltOctree& built, const CoarseFrames& c
     detail.caster->intersect(rays, hits);
 
     std::vector<Eigen::Vector3d> weighted(end - begin, Eigen::Vector3d::Zero()), plain(end - begin, Eigen::Vector3d::Zero());
+    std::vector<std::array<Eigen::Vector3d, 2>> sides(end - begin, {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()});
     SampleCounts& count = counts[chunk];
     count.rays += rays.size();
     for (std::size_t k = 0; k < samples.size(); ++k) {
@@ -230,14 +232,23 @@ SampleCounts sampleNormalField(octree::BuiltOctree& built, const CoarseFrames& c
         normal = closest->normal;
         ++count.fallbacks;
       }
-      weighted[samples[k].leaf] += samples[k].weight * normal.cast<double>();
-      plain[samples[k].leaf] += normal.cast<double>();
+      const std::uint32_t slot = samples[k].leaf;
+      weighted[slot] += samples[k].weight * normal.cast<double>();
+      plain[slot] += normal.cast<double>();
+      const OctreeNode& leaf = octree.nodes[leaves[begin + slot]];
+      // The forward ray runs along m's normal at the sample.
+      if (leaf.twoSided) sides[slot][leafSide(rays[2 * k].direction, leaf.sideAxis)] += samples[k].weight * normal.cast<double>();
     }
     for (std::size_t i = begin; i < end; ++i) {
       OctreeNode& leaf = octree.nodes[leaves[i]];
       const Eigen::Vector3d sum = weighted[i - begin].squaredNorm() > 0.0 ? weighted[i - begin] : plain[i - begin];
       leaf.normal = sum.squaredNorm() > 0.0 ? Vec3f(sum.normalized().cast<float>()) : Vec3f(Vec3f::UnitZ());
       leaf.weight = areas[i - begin] * unitToWorldArea;
+      // A side no sample picked (m's normals all on one side here after all)
+      // shows the leaf's mean.
+      for (int side = 0; side < 2 && leaf.twoSided; ++side)
+        leaf.sides[side] = sides[i - begin][side].squaredNorm() > 0.0 ? Vec3f(sides[i - begin][side].normalized().cast<float>())
+                                                                       : leaf.normal;
     }
     if (onChunkDone) onChunkDone(++chunksDone, chunks);
   });

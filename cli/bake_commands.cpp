@@ -52,13 +52,15 @@ struct LookupCommand {
   bool filter = false;
 };
 
-// m's normal at each point, when the file lets leaves show it (version 3).
+// m's normal at each point, when the file's leaves may show it or pick a
+// side by it (versions 3 and 4).
 Result<std::vector<Vec3f>> coarseNormalsFor(const LookupCommand& command, const ApoTexture& texture,
                                             const std::vector<Vec3f>& points) {
-  if (!texture.defersToCoarse) return std::vector<Vec3f>(points.size(), Vec3f::Zero());
+  if (!texture.needsCoarseNormals()) return std::vector<Vec3f>(points.size(), Vec3f::Zero());
   if (command.coarse.empty())
-    return usageError("{}: some leaves show m's own normal (format version 3): give m with --coarse",
-                      command.apo.string());
+    return usageError("{}: some leaves show m's own normal or pick one of two sides by it (format version {}): give m "
+                      "with --coarse",
+                      command.apo.string(), texture.twoSidedLeaves > 0 ? 4 : 3);
   auto coarse = readScan(command.coarse);
   if (!coarse) return coarse.error();
   if (!coarse->isMesh()) return badInput("{}: m must be a triangle mesh", command.coarse.string());

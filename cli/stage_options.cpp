@@ -142,6 +142,8 @@ void addBakeOptions(CLI::App& app, BakeArguments& arguments) {
   app.add_option("--normal-encoding", o.encoding, "xyz8 (the paper's 8 bits per axis) or oct24 (octahedral)")
       ->transform(CLI::CheckedTransformer(encodings, CLI::ignore_case).description(choicesOf(encodings)))
       ->default_str(normalEncodingName(o.encoding));
+  app.add_flag("--one-sided", [&o](std::int64_t) { o.twoSidedLeaves = false; },
+               "One normal per leaf, as in the paper: no two-sided leaves across thin parts");
   app.add_option("--threads", arguments.threads, "Worker threads (0: all cores); the output does not depend on it")
       ->capture_default_str();
 }

@@ -25,6 +25,9 @@ bool isCoarseCode(const ApoTexture& texture, const std::array<std::uint8_t, 3>& 
 struct ForestNode {
   std::uint8_t childMask = 0, kindMask = 0;
   std::array<std::uint8_t, 3> normal{};
+  bool twoSided = false;  // a leaf of two texels: `normal` is side 0, `otherSide` side 1
+  std::array<std::uint8_t, 3> otherSide{};
+  std::uint8_t sideAxis = 0;
   std::uint32_t firstChild = kNoNode;  // index in Forest::nodes
   int depth = 0;
 };
@@ -48,7 +51,8 @@ Status checkTextureFields(const ApoTexture& texture) {
     return badInput("{} bytes of texels for a {} x {} texture (expected {})", texture.texels.size(), texture.width,
                     texture.height, 4 * texels);
   // Each count alone first, so their sum cannot overflow.
-  if (texture.leafNodes > texels || texture.internalNodes > texels || texture.usedTexels() > texels)
+  if (texture.leafNodes > texels || texture.internalNodes > texels || texture.twoSidedLeaves > texture.leafNodes ||
+      texture.usedTexels() > texels)
     return badInput("{} leaves and {} internal nodes after a grid of {} texels do not fit the {} texels of the "
                     "texture",
                     texture.leafNodes, texture.internalNodes, texture.gridTexels(), texels);
@@ -92,8 +96,8 @@ class ForestReader {
     return okStatus();
   }
 
-  // Reads the node at next_; `expectInternal` is the parent's kind bit.
-  Status readNode(int depth, std::optional<bool> expectInternal) {
+  // Reads the node at next_; `twoTexels` is the parent's kind bit.
+  Status readNode(int depth, std::optional<bool> twoTexels) {
     if (next_ >= used_)
       return badInput("texel {}: a node starts past the {} used texels", next_, used_);
     if (depth > texture_.maxDepth)
@@ -103,9 +107,11 @@ class ForestReader {
     node.depth = depth;
     node.childMask = texel::alpha(texture_.texels, next_);
     const bool internal = node.childMask != 0;
-    if (expectInternal && *expectInternal != internal)
-      return badInput("texel {}: its parent's kind mask says {}, but its child mask is {:#04x}", next_,
-                      *expectInternal ? "internal node" : "leaf", node.childMask);
+    if (twoTexels && !*twoTexels && internal)
+      return badInput("texel {}: its parent's kind mask says leaf, but its child mask is {:#04x}", next_,
+                      node.childMask);
+    node.twoSided = twoTexels && *twoTexels && !internal;
+    if (node.twoSided) APO_RETURN_IF_ERROR(readTwoSidedLeaf(node));
     if (internal && next_ + 2 > used_)
       return badInput("texel {}: an internal node's second texel is past the {} used texels", next_, used_);
     node.normal = texel::rgb(texture_.texels, internal ? next_ + 1 : next_);
@@ -118,8 +124,28 @@ class ForestReader {
                       node.kindMask, node.childMask);
     texels_.push_back(next_);
     forest_.nodes.push_back(node);
-    next_ += texelsOf(internal);
+    next_ += texelsOf(internal || node.twoSided);
     (internal ? internal_ : leaves_) += 1;
+    twoSided_ += node.twoSided ? 1 : 0;
+    return okStatus();
+  }
+
+  // A leaf its parent's kind bit gives two texels (version 4): side 0 in
+  // the first, side 1 and the axis in the second; neither side m's code.
+  Status readTwoSidedLeaf(ForestNode& node) const {
+    if (texture_.twoSidedLeaves == 0)
+      return badInput("texel {}: its parent's kind mask says two texels, but its child mask is 0: a two-sided leaf, "
+                      "which only files counting two-sided leaves (format version 4) hold",
+                      next_);
+    if (next_ + 2 > used_)
+      return badInput("texel {}: a two-sided leaf's second texel is past the {} used texels", next_, used_);
+    node.otherSide = texel::rgb(texture_.texels, next_ + 1);
+    node.sideAxis = texel::alpha(texture_.texels, next_ + 1);
+    if (node.sideAxis > 2)
+      return badInput("texel {}: a two-sided leaf's axis is {} (expected 0 x, 1 y or 2 z)", next_ + 1,
+                      int{node.sideAxis});
+    if (isCoarseCode(texture_, node.normal) || isCoarseCode(texture_, node.otherSide))
+      return badInput("texel {}: a side of a two-sided leaf holds the code of m's own normal", next_);
     return okStatus();
   }
 
@@ -139,10 +165,12 @@ class ForestReader {
   }
 
   Status checkEnd() const {
-    if (next_ != used_ || leaves_ != texture_.leafNodes || internal_ != texture_.internalNodes)
-      return badInput("the nodes end at texel {} with {} leaves and {} internal nodes, but the texture counts {} "
-                      "used texels, {} leaves and {} internal nodes",
-                      next_, leaves_, internal_, used_, texture_.leafNodes, texture_.internalNodes);
+    if (next_ != used_ || leaves_ != texture_.leafNodes || internal_ != texture_.internalNodes ||
+        twoSided_ != texture_.twoSidedLeaves)
+      return badInput("the nodes end at texel {} with {} leaves ({} two-sided) and {} internal nodes, but the "
+                      "texture counts {} used texels, {} leaves ({} two-sided) and {} internal nodes",
+                      next_, leaves_, twoSided_, internal_, used_, texture_.leafNodes, texture_.twoSidedLeaves,
+                      texture_.internalNodes);
     const auto padding = texture_.texels.begin() + static_cast<std::ptrdiff_t>(4 * used_);
     const auto nonZero = std::find_if(padding, texture_.texels.end(), [](std::uint8_t b) { return b != 0; });
     if (nonZero != texture_.texels.end())
@@ -154,7 +182,7 @@ class ForestReader {
   const ApoTexture& texture_;
   const std::uint64_t used_;
   std::uint64_t next_;
-  std::uint64_t leaves_ = 0, internal_ = 0;
+  std::uint64_t leaves_ = 0, internal_ = 0, twoSided_ = 0;
   Forest forest_;
   std::vector<std::uint64_t> texels_;  // first texel of each node of forest_
 };
@@ -236,6 +264,14 @@ class OctreeBuilder {
       node.coarseNormal = isCoarseCode(texture_, forestNode.normal);
       node.normal = node.coarseNormal ? Vec3f(Vec3f::Zero()) : decodeNormal(forestNode.normal, texture_.encoding);
       node.childMask = forestNode.childMask;
+      if (forestNode.twoSided) {
+        node.twoSided = true;
+        node.sideAxis = forestNode.sideAxis;
+        node.sides = {decodeNormal(forestNode.normal, texture_.encoding),
+                      decodeNormal(forestNode.otherSide, texture_.encoding)};
+        const Vec3f mean = node.sides[0] + node.sides[1];
+        node.normal = mean.squaredNorm() > 0.0f ? Vec3f(mean.normalized()) : node.sides[0];
+      }
     } else {
       for (const Source& child : childrenOf(source))
         node.childMask |= static_cast<std::uint8_t>(1u << childIndexOf(source.cell, child.cell));

@@ -75,10 +75,12 @@ std::array<std::uint8_t, 4> littleEndian(std::uint32_t value) {
           static_cast<std::uint8_t>(value >> 16), static_cast<std::uint8_t>(value >> 24)};
 }
 
+bool takesTwoTexels(const OctreeNode& node) { return !node.isLeaf() || node.twoSided; }
+
 std::uint8_t kindMaskOf(const Octree& octree, const OctreeNode& node) {
   std::uint8_t kind = 0;
   for (int child = 0; child < 8; ++child)
-    if (hasChild(node.childMask, child) && !octree.nodes[childNode(node, child)].isLeaf())
+    if (hasChild(node.childMask, child) && takesTwoTexels(octree.nodes[childNode(node, child)]))
       kind |= static_cast<std::uint8_t>(1u << child);
   return kind;
 }
@@ -116,6 +118,7 @@ class ForestEncoder {
   std::uint64_t usedTexels() const { return next_; }
   std::uint64_t leaves() const { return leaves_; }
   std::uint64_t internalNodes() const { return internal_; }
+  std::uint64_t twoSidedLeaves() const { return twoSided_; }
 
  private:
   Result<std::uint64_t> queue(std::uint32_t node, int depth) {
@@ -124,13 +127,21 @@ class ForestEncoder {
     if (depth > texture_.maxDepth)
       return internalError("octree node {} is at depth {}, deeper than the max depth {} of the bake", node, depth,
                            int{texture_.maxDepth});
-    const std::uint64_t size = texelsOf(!octreeNode.isLeaf());
+    if (octreeNode.isLeaf() && octreeNode.twoSided && depth <= texture_.completeDepth)
+      return internalError("octree node {} is a two-sided leaf at the completion depth {}: no parent's kind bit "
+                           "would say it takes two texels",
+                           node, depth);
+    if (octreeNode.isLeaf() && octreeNode.twoSided && octreeNode.sideAxis > 2)
+      return internalError("octree node {} is a two-sided leaf on axis {} (expected 0, 1 or 2)", node,
+                           int{octreeNode.sideAxis});
+    const std::uint64_t size = texelsOf(takesTwoTexels(octreeNode));
     if (next_ + size > texel::kMaxUsedTexels)
       return usageError("the octree needs more than {} texels, the most a 32-bit texel index can address; lower "
                         "--max-depth or raise --error",
                         texel::kMaxUsedTexels);
     queue_.push_back({node, next_, depth});
     (octreeNode.isLeaf() ? leaves_ : internal_) += 1;
+    twoSided_ += octreeNode.isLeaf() && octreeNode.twoSided ? 1 : 0;
     next_ += size;
     return queue_.back().texel;
   }
@@ -138,6 +149,14 @@ class ForestEncoder {
   Status writeNode(const Pending& item, std::vector<std::uint8_t>& texels) {
     const OctreeNode& node = octree_.nodes[item.node];
     const std::array<std::uint8_t, 3> normal = encodeNormal(node.normal, texture_.encoding);
+    if (node.isLeaf() && node.twoSided) {
+      // sides[0] where the child mask of a leaf (0) is, sides[1] and the axis
+      // in the second texel (docs/apo-format.md, "Two-sided leaves").
+      grow(texels);
+      putTexel(texels, item.texel, encodeNormal(node.sides[0], texture_.encoding), 0);
+      putTexel(texels, item.texel + 1, encodeNormal(node.sides[1], texture_.encoding), node.sideAxis);
+      return okStatus();
+    }
     if (node.isLeaf()) {
       grow(texels);
       putTexel(texels, item.texel, node.coarseNormal ? coarseBytes() : normal, 0);
@@ -171,7 +190,7 @@ class ForestEncoder {
   const ApoTexture& texture_;
   std::vector<Pending> queue_;
   std::uint64_t next_;
-  std::uint64_t leaves_ = 0, internal_ = 0;
+  std::uint64_t leaves_ = 0, internal_ = 0, twoSided_ = 0;
 };
 
 }  // namespace
@@ -206,6 +225,10 @@ Result<ApoTexture> encodeApo(const Octree& octree, int completeDepth, NormalEnco
 
   texture.leafNodes = encoder.leaves();
   texture.internalNodes = encoder.internalNodes();
+  texture.twoSidedLeaves = encoder.twoSidedLeaves();
+  // Version 4 files are version 3 files with two-sided leaves: a reader
+  // takes the code of m's normal as such in both.
+  texture.defersToCoarse = texture.defersToCoarse || texture.twoSidedLeaves > 0;
   const std::uint64_t used = encoder.usedTexels();
   APO_CHECK_OP(used, ==, texture.usedTexels());
   texture.width = texel::textureWidthFor(used);

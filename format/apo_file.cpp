@@ -1,5 +1,5 @@
-// The .apo file, format versions 1 to 3 (docs/apo-format.md): a 128-byte
-// little-endian header (160 bytes in versions 2 and 3, which add the scan's local
+// The .apo file, format versions 1 to 4 (docs/apo-format.md): a 128-byte
+// little-endian header (160 bytes in versions 2 to 4, which add the scan's local
 // frame origin), then the texture's texels. The reader trusts nothing:
 // every header field is checked, sizes against the actual file size before
 // anything is allocated for them, the payload against its SHA-256, and the
@@ -58,18 +58,18 @@ constexpr std::size_t kHeaderBytes = 128;
 static_assert(kChecksum.offset + kChecksum.size == kHeaderBytes);
 // Version 2's extension: the origin of the scan's local frame (file
 // coordinates = origin + world coordinates of the transform above), then
-// reserved zero bytes.
+// the count of two-sided leaves (zero before version 4).
 constexpr Field kOriginX{128, 8, "origin x"};
 constexpr Field kOriginY{136, 8, "origin y"};
 constexpr Field kOriginZ{144, 8, "origin z"};
-constexpr Field kReserved{152, 8, "reserved"};
+constexpr Field kTwoSidedLeaves{152, 8, "two-sided leaves"};
 constexpr std::size_t kHeaderBytesV2 = 160;
-static_assert(kReserved.offset + kReserved.size == kHeaderBytesV2);
+static_assert(kTwoSidedLeaves.offset + kTwoSidedLeaves.size == kHeaderBytesV2);
 constexpr std::array<Field, 23> kFields = {kMagic,      kVersion,     kByteOrder,    kHeaderSize,   kScale,
                                            kOffsetX,    kOffsetY,     kOffsetZ,      kCoarseDepth,  kMaxDepth,
                                            kCompleteDepth, kEncoding, kWidth,        kHeight,       kLeafNodes,
                                            kInternalNodes, kUsedTexels, kPayloadSize, kChecksum,   kOriginX,
-                                           kOriginY,    kOriginZ,     kReserved};
+                                           kOriginY,    kOriginZ,     kTwoSidedLeaves};
 
 // 0x89 catches 7-bit transfers, CR LF and LF catch line-ending conversions,
 // 0x1A stops a DOS `type` (the PNG signature's reasoning).
@@ -82,6 +82,10 @@ constexpr std::uint32_t kFormatVersionWithOrigin = 2;
 // the code of "m's own normal" (docs/apo-format.md). Written only when some
 // leaf does.
 constexpr std::uint32_t kFormatVersionDeferringToCoarse = 3;
+// Version 4: version 3, and leaves of two texels (one normal per side of m),
+// counted at byte 152. Written only when some leaf is two-sided.
+constexpr std::uint32_t kFormatVersionTwoSided = 4;
+constexpr std::uint32_t kNewestFormatVersion = kFormatVersionTwoSided;
 bool hasOrigin(std::uint32_t version) { return version >= kFormatVersionWithOrigin; }
 
 std::uint32_t headerBytesOf(std::uint32_t version) { return hasOrigin(version) ? kHeaderBytesV2 : kHeaderBytes; }
@@ -100,7 +104,7 @@ struct Header {
   std::uint64_t leafNodes = 0, internalNodes = 0, usedTexels = 0, payloadSize = 0;
   std::array<std::uint8_t, 32> checksum{};
   std::array<double, 3> origin{};  // version 2
-  std::uint64_t reserved = 0;      // version 2
+  std::uint64_t twoSidedLeaves = 0;  // versions 2 to 4 (zero before 4)
 };
 
 template <class... Args>
@@ -155,9 +159,11 @@ Header headerOf(const ApoTexture& texture) {
   Header header;
   header.magic = kMagicBytes;
   header.origin = texture.origin;
-  header.version = texture.defersToCoarse                         ? kFormatVersionDeferringToCoarse
+  header.version = texture.twoSidedLeaves > 0                     ? kFormatVersionTwoSided
+                   : texture.defersToCoarse                       ? kFormatVersionDeferringToCoarse
                    : header.origin == std::array<double, 3>{} ? kFormatVersion
                                                               : kFormatVersionWithOrigin;
+  header.twoSidedLeaves = texture.twoSidedLeaves;
   header.byteOrderMark = kByteOrderMark;
   header.headerSize = headerBytesOf(header.version);
   header.scale = texture.transform.scale;
@@ -201,7 +207,7 @@ std::string headerBytes(const Header& header) {
     out.float64(kOriginX, header.origin[0]);
     out.float64(kOriginY, header.origin[1]);
     out.float64(kOriginZ, header.origin[2]);
-    out.integer(kReserved, header.reserved);
+    out.integer(kTwoSidedLeaves, header.twoSidedLeaves);
   }
   APO_CHECK_OP(out.bytes().size(), ==, header.headerSize);
   return out.bytes();
@@ -281,16 +287,16 @@ Result<Header> parseHeader(std::string_view bytes, std::uint64_t fileSize) {
     APO_RETURN_IF_ERROR(in.float64(kOriginX, header.origin[0]));
     APO_RETURN_IF_ERROR(in.float64(kOriginY, header.origin[1]));
     APO_RETURN_IF_ERROR(in.float64(kOriginZ, header.origin[2]));
-    APO_RETURN_IF_ERROR(in.integer(kReserved, header.reserved));
+    APO_RETURN_IF_ERROR(in.integer(kTwoSidedLeaves, header.twoSidedLeaves));
   }
   return header;
 }
 
 Status checkIdentity(const Header& header) {
   APO_RETURN_IF_ERROR(checkMagic(header));
-  if (header.version < kFormatVersion || header.version > kFormatVersionDeferringToCoarse)
+  if (header.version < kFormatVersion || header.version > kNewestFormatVersion)
     return fieldError(kVersion, "expected {} to {} (the versions this reader knows), found {}", kFormatVersion,
-                      kFormatVersionDeferringToCoarse, header.version);
+                      kNewestFormatVersion, header.version);
   if (header.byteOrderMark != kByteOrderMark)
     return fieldError(kByteOrder, "expected {:#010x} stored as 04 03 02 01, found {:#010x}", kByteOrderMark,
                       header.byteOrderMark);
@@ -306,7 +312,12 @@ Status checkOrigin(const Header& header) {
   for (int axis = 0; axis < 3; ++axis)
     if (!std::isfinite(header.origin[axis]))
       return fieldError(*fields[axis], "expected a finite number, found {}", header.origin[axis]);
-  if (header.reserved != 0) return fieldError(kReserved, "expected 0, found {:#x}", header.reserved);
+  if (header.version < kFormatVersionTwoSided && header.twoSidedLeaves != 0)
+    return fieldError(kTwoSidedLeaves, "expected 0 in format version {} (two-sided leaves came with version 4), found {}",
+                      header.version, header.twoSidedLeaves);
+  if (header.version >= kFormatVersionTwoSided && header.twoSidedLeaves == 0)
+    return fieldError(kTwoSidedLeaves, "expected at least 1 in format version 4 (a file without two-sided leaves is "
+                      "version 1, 2 or 3), found 0");
   return okStatus();
 }
 
@@ -352,9 +363,11 @@ Status checkSizes(const Header& header, std::uint64_t fileSize) {
     return fieldError(kUsedTexels, "expected between the {} grid texels and the {} texels of the texture, found {}",
                       gridTexels, texels, header.usedTexels);
   if (header.leafNodes > header.usedTexels || header.internalNodes > header.usedTexels ||
-      gridTexels + header.leafNodes + 2 * header.internalNodes != header.usedTexels)
-    return fieldError(kUsedTexels, "expected grid + leaves + 2 x internal nodes = {} + {} + 2 x {}, found {}",
-                      gridTexels, header.leafNodes, header.internalNodes, header.usedTexels);
+      header.twoSidedLeaves > header.leafNodes ||
+      gridTexels + header.leafNodes + header.twoSidedLeaves + 2 * header.internalNodes != header.usedTexels)
+    return fieldError(kUsedTexels,
+                      "expected grid + leaves + two-sided leaves + 2 x internal nodes = {} + {} + {} + 2 x {}, found {}",
+                      gridTexels, header.leafNodes, header.twoSidedLeaves, header.internalNodes, header.usedTexels);
   if (header.height != texel::rowsFor(header.usedTexels, header.width))
     return fieldError(kHeight, "expected {} rows for {} used texels at width {}, found {}",
                       texel::rowsFor(header.usedTexels, header.width), header.usedTexels, header.width,
@@ -385,7 +398,9 @@ ApoTexture textureOf(const Header& header, std::vector<std::uint8_t> texels) {
   texture.internalNodes = header.internalNodes;
   texture.texels = std::move(texels);
   texture.origin = header.origin;
-  texture.defersToCoarse = header.version == kFormatVersionDeferringToCoarse;
+  // Version 4 is version 3 with two-sided leaves: both may hold m's code.
+  texture.defersToCoarse = header.version >= kFormatVersionDeferringToCoarse;
+  texture.twoSidedLeaves = header.twoSidedLeaves;
   return texture;
 }
 

@@ -41,6 +41,15 @@ Lookup textureResult(const ApoTexture& texture, std::uint64_t node, std::uint64_
           static_cast<std::uint32_t>(node), depth, coarse};
 }
 
+// A two-sided leaf at `node` (version 4): the side m's normal picks.
+Lookup twoSidedResult(const ApoTexture& texture, std::uint64_t node, int depth, const Vec3f& coarseNormal) {
+  checkTexel(texture, node + 1);
+  const int side = leafSide(coarseNormal, texel::alpha(texture.texels, node + 1));
+  Lookup result = textureResult(texture, node, node + static_cast<std::uint64_t>(side), depth, Vec3f::Zero());
+  result.twoSided = true;
+  return result;
+}
+
 // A neighbour's normal enters the blend when its walk reaches P's depth or
 // stops one level above; a coarser leaf's mean describes a region too far
 // from P (measured: docs/benchmarks.md, "Filtering"), a missing one nothing.
@@ -73,9 +82,11 @@ Lookup lookupTexture(const ApoTexture& texture, const Vec3f& unitPoint, int maxD
                (static_cast<float>(cell.z) + 0.5f) * width);
   std::uint64_t node = entry;
   int depth = texture.completeDepth;
+  bool twoTexels = false;  // the parent's kind bit (grid nodes have none)
   for (;;) {
     checkTexel(texture, node);
     const std::uint8_t childMask = texel::alpha(texture.texels, node);
+    if (childMask == 0 && twoTexels) return twoSidedResult(texture, node, depth, coarseNormal);
     if (childMask == 0) return textureResult(texture, node, node, depth, coarseNormal);
     // A maxDepth above the grid stops at the grid's node: the levels above
     // are not stored.
@@ -88,6 +99,7 @@ Lookup lookupTexture(const ApoTexture& texture, const Vec3f& unitPoint, int maxD
     std::uint64_t next = node + texel::rgb24(texture.texels, node);
     for (int before = 0; before < child; ++before)
       if (hasChild(childMask, before)) next += texelsOf(hasChild(kindMask, before));
+    twoTexels = hasChild(kindMask, child);
     node = next;
     centre = childCentre(centre, width, child);
     width *= 0.5f;
@@ -132,6 +144,8 @@ Lookup lookupOctree(const Octree& octree, const Vec3f& unitPoint, int maxDepth, 
   for (;;) {
     const OctreeNode& node = octree.nodes[index];
     if (node.isLeaf() && node.coarseNormal) return {true, coarseNormal, index, depth, true};
+    if (node.isLeaf() && node.twoSided)
+      return {true, node.sides[leafSide(coarseNormal, node.sideAxis)], index, depth, false, true};
     if (node.isLeaf() || depth >= maxDepth) return {true, node.normal, index, depth};
     const int child = childIndex(centre, unitPoint);
     if (!hasChild(node.childMask, child)) return {true, node.normal, index, depth};

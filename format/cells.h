@@ -49,7 +49,9 @@ inline std::uint32_t childNode(const OctreeNode& node, int child) {
   return node.firstChild + static_cast<std::uint32_t>(childrenBefore(node.childMask, child));
 }
 
-inline std::uint64_t texelsOf(bool internal) { return internal ? 2 : 1; }
+// Texels of a node: two for an internal node or a two-sided leaf (the
+// parent's kind bit), one for a leaf.
+inline std::uint64_t texelsOf(bool twoTexels) { return twoTexels ? 2 : 1; }
 
 // The brood of an internal node lies inside the octree.
 inline void checkBrood(const Octree& octree, const OctreeNode& node) {

@@ -52,9 +52,23 @@ struct OctreeNode {
   // than any one normal of the cell): stored as the reserved normal code of
   // format version 3; `normal` is still the cell's, for the levels above.
   bool coarseNormal = false;
+  // A two-sided leaf (format version 4): a cell holding both sides of a
+  // thin part (or a surface that turns), whose M normals form two groups
+  // told apart by m's normal. sides[0] shows where m's interpolated normal
+  // has a non-negative coordinate on `sideAxis` (0 x, 1 y, 2 z), sides[1]
+  // where it is negative (leafSide); `normal` is still their mean, for the
+  // levels above. Never at or above the completion depth (docs/apo-format.md).
+  bool twoSided = false;
+  std::uint8_t sideAxis = 0;
+  std::array<Vec3f, 2> sides = {Vec3f::Zero(), Vec3f::Zero()};
 
   bool isLeaf() const { return childMask == 0; }
 };
+
+// Which side of a two-sided leaf a point shows: 0 where m's normal there has
+// a non-negative coordinate on the leaf's axis, else 1. The bake groups M's
+// normals by the same rule, the lookups and the shader pick by it.
+inline int leafSide(const Vec3f& coarseNormal, int sideAxis) { return coarseNormal[sideAxis] >= 0.0f ? 0 : 1; }
 
 // nodes[0] is the root, the unit cube [0, 1]^3 (centre 0.5, width 1).
 struct Octree {
@@ -91,9 +105,14 @@ struct ApoTexture {
   // m's own interpolated normal (OctreeNode::coarseNormal). Set by the
   // encoder when some leaf does, and by the reader for version 3 files.
   bool defersToCoarse = false;
+  // Format version 4: leaves of two texels, one normal per side of m
+  // (OctreeNode::twoSided); counted among leafNodes too.
+  std::uint64_t twoSidedLeaves = 0;
 
   std::uint64_t gridTexels() const { return std::uint64_t{1} << (3 * completeDepth); }
   std::uint64_t usedTexels() const;  // grid + nodes; the rest of the last row is zero
+  // Whether a lookup needs m's normal at the point to answer everywhere.
+  bool needsCoarseNormals() const { return defersToCoarse || twoSidedLeaves > 0; }
 };
 
 // Encodes the octree: levels above `completeDepth` are replaced by a dense
@@ -112,6 +131,7 @@ struct Lookup {
   std::uint32_t texel = 0;        // first texel of that node
   int depth = 0;                  // that node's depth in the octree
   bool coarse = false;            // that node shows m's own normal: `normal` is the caller's
+  bool twoSided = false;          // a two-sided leaf: `normal` is the side the caller's m normal picks
 };
 
 // Walks the encoded texture exactly as the shader does: the grid cell of P,
@@ -119,8 +139,9 @@ struct Lookup {
 // from the masks, until a leaf, a missing child (the last node's normal), or
 // `maxDepth`. `unitPoint` is in unit-cube coordinates.
 // `coarseNormal` is m's interpolated normal at the point (what the shader
-// has per fragment), answered where the node defers to m (version 3); zero
-// when the caller has no m.
+// has per fragment), answered where the node defers to m (version 3) and
+// picking the side of a two-sided leaf (version 4); zero when the caller has
+// no m (a two-sided leaf then shows sides[0]).
 Lookup lookupTexture(const ApoTexture& texture, const Vec3f& unitPoint, int maxDepth = 255,
                      const Vec3f& coarseNormal = Vec3f::Zero());
 // Paper 5.3, as the shader's filtering does it: the normals of the 8 cells

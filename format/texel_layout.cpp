@@ -27,6 +27,6 @@ Result<std::uint32_t> broodOffset(std::uint64_t nodeTexel, std::uint64_t broodTe
 
 }  // namespace texel
 
-std::uint64_t ApoTexture::usedTexels() const { return gridTexels() + leafNodes + 2 * internalNodes; }
+std::uint64_t ApoTexture::usedTexels() const { return gridTexels() + leafNodes + twoSidedLeaves + 2 * internalNodes; }
 
 }  // namespace apo

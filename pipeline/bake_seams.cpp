@@ -57,7 +57,9 @@ Result<Bake> bakeApo(const Scan& detail, const Scan& coarse, const BakeOptions& 
 Result<std::vector<Vec3f>> coarseNormalsAt(const Scan& coarse, const std::vector<Vec3f>& points) {
   Scan m = coarse;
   if (m.points.normals.size() != m.points.size()) m.points.normals = areaWeightedVertexNormals(m);
-  auto closest = makeFlannClosestPoint(m);
+  // Exact (Embree's point query): across a part thinner than m's triangles,
+  // the nearest vertices may lie on the other side.
+  auto closest = makeEmbreeClosestPoint(m);
   if (!closest) return closest.error();
   std::vector<Vec3f> normals(points.size());
   for (std::size_t i = 0; i < points.size(); ++i) {

@@ -19,7 +19,7 @@ Result<Bake> bakeApo(const Scan& detail, const Scan& coarse, const BakeOptions& 
 // m's own interpolated normal (its file's vertex normals, else area-weighted
 // ones, as the bake and the renderer take them) at the closest point of m to
 // each point: what a leaf of a version 3 APO that shows m's normal answers
-// there (`apo lookup --coarse`). FLANN's closest point.
+// there (`apo lookup --coarse`). The exact closest point (Embree).
 Result<std::vector<Vec3f>> coarseNormalsAt(const Scan& coarse, const std::vector<Vec3f>& points);
 
 }  // namespace apo

@@ -45,7 +45,7 @@ Json bakeJson(const BakeOptions& o) {
           {"budget", o.budget},              {"error", o.error},
           {"max-distance", o.maxDistance},
           {"samples", o.samples},            {"complete-depth", o.completeDepth},
-          {"normal-encoding", normalEncodingName(o.encoding)}};
+          {"normal-encoding", normalEncodingName(o.encoding)}, {"one-sided", !o.twoSidedLeaves}};
 }
 
 Json renderJson(const RenderOptions& o) {

@@ -388,10 +388,12 @@ Result<std::vector<ViewImages>> renderViews(const Scan* detail, const Scan& coar
 
 // The texel reads of a walk that lookupTexture describes: the grid entry,
 // then two per level descended (the node's first texel and its kind mask),
-// the first texel of the node it stops at, and the one holding its normal;
-// only the grid entry when the walk finds nothing.
+// the first texel of the node it stops at, and the one holding its normal
+// (a two-sided leaf: its axis too); only the grid entry when the walk finds
+// nothing.
 std::uint32_t expectedFetches(const Lookup& lookup, int completeDepth) {
-  return lookup.found ? 2u * static_cast<std::uint32_t>(lookup.depth - completeDepth) + 3u : 1u;
+  if (!lookup.found) return 1u;
+  return 2u * static_cast<std::uint32_t>(lookup.depth - completeDepth) + 3u + (lookup.twoSided ? 1u : 0u);
 }
 
 // What the exactness shader writes where its walk found no node: the empty

@@ -111,7 +111,7 @@ uniform uint widthMask;      // texture width - 1 (a power of two)
 uniform int widthShift;      // log2(texture width)
 uniform int completeDepth;
 uniform uint normalEncoding; // APO_ENCODING_XYZ8 or APO_ENCODING_OCT24
-uniform bool defersToCoarse; // format version 3: the reserved code shows m's own normal
+uniform bool defersToCoarse; // format versions 3 and 4: the reserved code shows m's own normal
 uniform float unitScale;     // unit = world * unitScale + unitOffset
 uniform vec3 unitOffset;
 uniform bool mipmapping;
@@ -140,8 +140,9 @@ vec3 decodeNormal(uvec3 rgb) {
 struct Walk {
   bool found;
   uint node;         // first texel of the node the walk stopped at
-  uint normalTexel;  // the texel holding its normal
+  uint normalTexel;  // the texel holding its normal (side 0 of a two-sided leaf)
   int depth;
+  bool twoSided;     // a leaf of two texels (format version 4): normalAt picks the side
 };
 
 // The grid cell of P, then down the tree: child from the sign of P minus
@@ -149,7 +150,7 @@ struct Walk {
 // leaf, at a missing child, at `maxDepth`, or (mip-mapping) where the cell's
 // diagonal covers less than a pixel at `distance`.
 Walk walk(vec3 P, int maxDepth, float distance) {
-  Walk w = Walk(false, 0u, 0u, 0);
+  Walk w = Walk(false, 0u, 0u, 0, false);
   if (any(lessThan(P, vec3(0.0))) || any(greaterThan(P, vec3(1.0)))) return w;
   uint n = 1u << uint(completeDepth);
   float fn = float(n);
@@ -161,14 +162,16 @@ Walk walk(vec3 P, int maxDepth, float distance) {
   vec3 centre = (vec3(cell) + 0.5) * width;
   int depth = completeDepth;
   float pixelsPerUnitCell = sqrt(3.0) / unitScale * pixelsPerWorldUnitAtOne / distance;
+  bool twoTexels = false;  // the parent's kind bit (grid nodes have none)
   for (int step = 0; step < APO_MAX_WALK_STEPS; ++step) {
     uvec4 first = texel(node);
     uint childMask = first.a;
-    if (childMask == 0u) return Walk(true, node, node, depth);
-    if (depth >= maxDepth || (mipmapping && width * pixelsPerUnitCell < 1.0)) return Walk(true, node, node + 1u, depth);
+    if (childMask == 0u) return Walk(true, node, node, depth, twoTexels);
+    if (depth >= maxDepth || (mipmapping && width * pixelsPerUnitCell < 1.0)) return Walk(true, node, node + 1u, depth, false);
     uint child = (P.x <= centre.x ? 4u : 0u) | (P.y <= centre.y ? 2u : 0u) | (P.z <= centre.z ? 1u : 0u);
-    if ((childMask & (1u << child)) == 0u) return Walk(true, node, node + 1u, depth);
+    if ((childMask & (1u << child)) == 0u) return Walk(true, node, node + 1u, depth, false);
     uint kindMask = texel(node + 1u).a;
+    twoTexels = (kindMask & (1u << child)) != 0u;
     uint before = childMask & ((1u << child) - 1u);
     node += (first.r | (first.g << 8) | (first.b << 16)) + uint(bitCount(before)) + uint(bitCount(before & kindMask));
     float quarter = width * 0.25;
@@ -177,15 +180,19 @@ Walk walk(vec3 P, int maxDepth, float distance) {
     width *= 0.5;
     ++depth;
   }
-  return Walk(true, node, node, depth);
+  return Walk(true, node, node, depth, false);
 }
 
 vec3 unitPointOf(vec3 world) { return world * unitScale + unitOffset; }
 
 // The node's normal, or m's own (`coarseNormal`, the fragment's) where a
-// version 3 leaf holds the reserved code.
+// leaf holds the reserved code; of a two-sided leaf, the side m's normal
+// picks (format/'s leafSide: side 0 where its coordinate on the leaf's axis
+// is not negative).
 vec3 normalAt(Walk w, vec3 coarseNormal) {
-  uvec3 rgb = texel(w.normalTexel).rgb;
+  uint normalTexel = w.normalTexel;
+  if (w.twoSided && coarseNormal[texel(w.node + 1u).a] < 0.0) normalTexel = w.node + 1u;
+  uvec3 rgb = texel(normalTexel).rgb;
   uint code = normalEncoding == APO_ENCODING_XYZ8 ? APO_COARSE_XYZ8 : APO_COARSE_OCT24;
   if (defersToCoarse && (rgb.r | (rgb.g << 8) | (rgb.b << 16)) == code) return coarseNormal;
   return decodeNormal(rgb);

@@ -3,10 +3,13 @@
 // scene owner and one intersect loop; only the geometry buffers differ.
 #include "adapters/embree/embree_ray_caster.h"
 
+#include "core/triangle_geometry.h"
+
 #include <embree3/rtcore.h>
 
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <string>
 
 namespace apo {
@@ -91,10 +94,12 @@ class EmbreeCaster final : public RayCaster {
     return query;
   }
 
+  friend class EmbreeClosestPoint;
   RTCDevice device_ = nullptr;
   RTCScene scene_ = nullptr;
   std::string lastError_;
 };
+
 
 bool fillTriangles(RTCGeometry geometry, const Scan& mesh) {
   // Embree may read 16 bytes at the last vertex: one float of padding.
@@ -145,6 +150,72 @@ Status checkDiscInput(const PointSet& points, const std::vector<float>& radii) {
   return okStatus();
 }
 
+// Point queries over a triangle scene: Embree visits the triangles whose
+// boxes meet the query's sphere, the callback shrinks the sphere to each
+// closer triangle point. Const and thread-safe like intersect().
+class EmbreeClosestPoint final : public ClosestPointFinder {
+ public:
+  explicit EmbreeClosestPoint(const Scan& mesh)
+      : positions_(mesh.points.positions), normals_(mesh.points.normals), triangles_(mesh.triangles) {}
+
+  Status build() {
+    return scene_.build(RTC_GEOMETRY_TYPE_TRIANGLE, [&](RTCGeometry g) {
+      Scan mesh;
+      mesh.points.positions = positions_;
+      mesh.triangles = triangles_;
+      return fillTriangles(g, mesh);
+    });
+  }
+
+  std::optional<SurfacePoint> closest(const Vec3f& query) const override {
+    Found found{this, query};
+    RTCPointQuery point{};
+    point.x = query.x();
+    point.y = query.y();
+    point.z = query.z();
+    point.radius = std::numeric_limits<float>::infinity();
+    RTCPointQueryContext context;
+    rtcInitPointQueryContext(&context);
+    rtcPointQuery(scene_.scene_, &point, &context, visit, &found);
+    if (found.triangle == kNone) return std::nullopt;
+    const Triangle& t = triangles_[found.triangle];
+    const Vec3f& w = found.point.weights;
+    const Vec3f n = w[0] * normals_[t[0]] + w[1] * normals_[t[1]] + w[2] * normals_[t[2]];
+    return SurfacePoint{found.point.position, n.squaredNorm() > 0.0f ? Vec3f(n.normalized()) : Vec3f(Vec3f::Zero())};
+  }
+
+ private:
+  static constexpr std::uint32_t kNone = ~0u;
+  struct Found {
+    const EmbreeClosestPoint* finder;
+    Vec3f query;
+    std::uint32_t triangle = kNone;
+    TrianglePoint point;
+  };
+
+  static bool visit(RTCPointQueryFunctionArguments* args) {
+    auto* found = static_cast<Found*>(args->userPtr);
+    const EmbreeClosestPoint& self = *found->finder;
+    const Triangle& t = self.triangles_[args->primID];
+    const TrianglePoint point = closestPointOnTriangle(found->query, self.positions_[t[0]], self.positions_[t[1]],
+                                                      self.positions_[t[2]]);
+    const float distance = std::sqrt(point.squaredDistance);
+    // Ties go to the lower triangle index: the answer does not depend on
+    // the order Embree visits them in.
+    if (distance > args->query->radius ||
+        (distance == args->query->radius && found->triangle != kNone && args->primID > found->triangle))
+      return false;
+    args->query->radius = distance;
+    found->triangle = args->primID;
+    found->point = point;
+    return true;
+  }
+
+  std::vector<Vec3f> positions_, normals_;
+  std::vector<Triangle> triangles_;
+  EmbreeCaster scene_;
+};
+
 }  // namespace
 
 Result<std::unique_ptr<RayCaster>> makeEmbreeMeshCaster(const Scan& mesh) {
@@ -153,6 +224,18 @@ Result<std::unique_ptr<RayCaster>> makeEmbreeMeshCaster(const Scan& mesh) {
     auto caster = std::make_unique<EmbreeCaster>();
     APO_RETURN_IF_ERROR(caster->build(RTC_GEOMETRY_TYPE_TRIANGLE, [&](RTCGeometry g) { return fillTriangles(g, mesh); }));
     return std::unique_ptr<RayCaster>(std::move(caster));
+  });
+}
+
+Result<std::unique_ptr<ClosestPointFinder>> makeEmbreeClosestPoint(const Scan& mesh) {
+  if (!mesh.isMesh()) return badInput("the closest point of a mesh needs triangles, got {} points and none", mesh.points.size());
+  if (mesh.points.normals.size() != mesh.points.size())
+    return badInput("the closest point of a mesh needs a normal per vertex: {} vertices, {} normals", mesh.points.size(),
+                    mesh.points.normals.size());
+  return catchLibraryErrors("Embree point query BVH", [&]() -> Result<std::unique_ptr<ClosestPointFinder>> {
+    auto finder = std::make_unique<EmbreeClosestPoint>(mesh);
+    APO_RETURN_IF_ERROR(finder->build());
+    return std::unique_ptr<ClosestPointFinder>(std::move(finder));
   });
 }
 

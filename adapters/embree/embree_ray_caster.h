@@ -4,6 +4,7 @@
 // callback or by a failed allocation, comes back as an Internal error.
 #pragma once
 
+#include "core/closest_point.h"
 #include "core/error.h"
 #include "core/geometry.h"
 #include "core/ray_caster.h"
@@ -25,5 +26,12 @@ Result<std::unique_ptr<RayCaster>> makeEmbreeMeshCaster(const Scan& mesh);
 // normal and radii holds one finite positive radius per point. The caster
 // copies its input.
 Result<std::unique_ptr<RayCaster>> makeEmbreeDiscCaster(const PointSet& points, const std::vector<float>& radii);
+
+// The exact closest point of a triangle mesh (Embree's point query over the
+// same BVH), its normal interpolated from the vertex normals (m's normal
+// field, where the FLANN finder's nearest vertices may lie on the other side
+// of a part thinner than m's triangles). BadInput for a point cloud or a
+// mesh without a normal per vertex. The finder copies its input.
+Result<std::unique_ptr<ClosestPointFinder>> makeEmbreeClosestPoint(const Scan& mesh);
 
 }  // namespace apo

@@ -1,5 +1,6 @@
 #include "adapters/embree/embree_ray_caster.h"
 
+#include "core/triangle_geometry.h"
 #include "tests/test_support.h"
 
 #include <gtest/gtest.h>
@@ -226,6 +227,45 @@ TEST(EmbreeDiscCaster, RefusesMissingNormalsAndBadRadii) {
   const auto result = makeEmbreeDiscCaster(disc, {-0.5f});
   ASSERT_FALSE(result.ok());
   EXPECT_NE(result.error().message.find("point 0"), std::string::npos) << result.error().message;
+}
+
+// The closest point against brute force over every triangle, on a thin
+// slab of large triangles (two 4 x 4 grids 0.002 apart, facing away): the
+// case where the nearest vertices lie on the other sheet.
+TEST(EmbreeClosestPoint, AgreesWithBruteForceOnAThinSlabOfLargeTriangles) {
+  Scan slab;
+  for (int side = 0; side < 2; ++side) {
+    const Scan grid = test::makeSquareGrid(4);
+    const auto first = static_cast<std::uint32_t>(slab.points.size());
+    for (const Vec3f& p : grid.points.positions) {
+      slab.points.positions.push_back(p + Vec3f(0.0f, 0.0f, side == 0 ? 0.001f : -0.001f));
+      slab.points.normals.push_back(side == 0 ? Vec3f::UnitZ() : Vec3f(-Vec3f::UnitZ()));
+    }
+    for (const Triangle& t : grid.triangles)
+      slab.triangles.push_back(side == 0 ? Triangle{first + t[0], first + t[1], first + t[2]}
+                                         : Triangle{first + t[0], first + t[2], first + t[1]});
+  }
+  auto finder = makeEmbreeClosestPoint(slab);
+  ASSERT_TRUE(finder.ok()) << finder.error().message;
+  std::mt19937 random(3);
+  std::uniform_real_distribution<float> inside(0.0f, 1.0f), height(-0.0015f, 0.0015f);
+  int upper = 0;
+  for (int i = 0; i < 20000; ++i) {
+    const Vec3f q(inside(random), inside(random), height(random));
+    float best = std::numeric_limits<float>::infinity();
+    for (const Triangle& t : slab.triangles) {
+      const auto& p = slab.points.positions;
+      best = std::min(best, std::sqrt(closestPointOnTriangle(q, p[t[0]], p[t[1]], p[t[2]]).squaredDistance));
+    }
+    const auto found = (*finder)->closest(q);
+    ASSERT_TRUE(found.has_value());
+    ASSERT_NEAR((found->position - q).norm(), best, 1e-6f) << q.transpose();
+    // The normal is the nearer sheet's.
+    ASSERT_FLOAT_EQ(found->normal.z(), q.z() >= 0.0f ? 1.0f : -1.0f) << q.transpose();
+    upper += q.z() >= 0.0f ? 1 : 0;
+  }
+  EXPECT_GT(upper, 5000);
+  EXPECT_FALSE(makeEmbreeClosestPoint(test::makeSquareGrid(2)).ok()) << "no vertex normals";
 }
 
 }  // namespace

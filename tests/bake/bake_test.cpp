@@ -5,6 +5,7 @@
 #include "ingest/ingest.h"
 #include "pipeline/bake_seams.h"
 #include "tests/bake/bumpy_sphere.h"
+#include "tests/bake/thin_shell.h"
 #include "pipeline/pipeline.h"
 #include "tests/test_support.h"
 
@@ -14,6 +15,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 #include <random>
 
@@ -230,6 +232,55 @@ TEST_F(BumpySphereBake, ReportCountsWhatWasBuilt) {
   EXPECT_LE(r.nodesPerDepth.size(), 10u);  // depths 0..9
   EXPECT_EQ(r.rays, 2 * (r.hits + r.fallbacks));
   EXPECT_EQ(r.textureBytes, std::uint64_t{r.textureWidth} * r.textureHeight * 4);
+}
+
+// Two-sided leaves against the analytic thin shell: both sheets share the
+// finest cells, so a leaf's one normal averages opposite sides; the two
+// sides, picked by m's normal as the shader picks them, follow each sheet.
+TEST(ThinShellBake, TwoSidedLeavesFollowBothSheetsWhereOneNormalCannot) {
+  const test::ThinShell shell;
+  const Scan detail = shell.mesh(150, true);   // 90,000 faces
+  const Scan coarse = shell.mesh(8, false);    // 256 faces
+  BakeOptions options;
+  options.coarseDepth = 4;
+  options.maxDepth = 7;  // cells of 1/128: more than twice the sheets' distance
+  options.budget = 1u << 20;
+  auto twoSided = bakeApo(detail, coarse, options);
+  ASSERT_TRUE(twoSided.ok()) << twoSided.error().message;
+  options.twoSidedLeaves = false;
+  auto oneSided = bakeApo(detail, coarse, options);
+  ASSERT_TRUE(oneSided.ok()) << oneSided.error().message;
+  EXPECT_GT(twoSided->report.refinement.twoSidedLeaves, 1000u);
+  EXPECT_EQ(twoSided->texture.twoSidedLeaves, twoSided->report.refinement.twoSidedLeaves);
+  EXPECT_EQ(oneSided->texture.twoSidedLeaves, 0u);
+
+  // Probes on both sheets of m, away from the edges; the truth is M's
+  // normal on the same sheet above or below the probe.
+  std::mt19937 random(11);
+  std::uniform_real_distribution<float> inside(0.05f, 0.95f);
+  double twoSidedError = 0.0, oneSidedError = 0.0, coarseError = 0.0;
+  int count = 0;
+  for (int i = 0; i < 20000; ++i) {
+    const float u = inside(random), v = inside(random);
+    const int side = i % 2;
+    const Vec3f p = shell.coarsePoint(u, v, side), m = shell.coarseNormal(side), truth = shell.normal(u, v, side);
+    const Lookup two = lookupTextureFiltered(twoSided->texture, twoSided->texture.transform.toUnit(p), m);
+    const Lookup one = lookupTextureFiltered(oneSided->texture, oneSided->texture.transform.toUnit(p), m);
+    ASSERT_TRUE(two.found && one.found) << p.transpose();
+    twoSidedError += degreesBetween(two.normal, truth);
+    oneSidedError += degreesBetween(one.normal, truth);
+    coarseError += degreesBetween(m, truth);
+    ++count;
+  }
+  twoSidedError /= count;
+  oneSidedError /= count;
+  coarseError /= count;
+  std::printf("thin shell, filtered mean error: two-sided leaves %.3f degrees, one-sided %.3f, m alone %.3f\n",
+              twoSidedError, oneSidedError, coarseError);
+  // m alone is off by the bumps' slope (up to 2.2 degrees); one normal per
+  // leaf cannot beat it where both sheets share the leaf.
+  EXPECT_LT(twoSidedError, coarseError / 4.0) << "two-sided " << twoSidedError << ", m " << coarseError;
+  EXPECT_LT(twoSidedError, oneSidedError / 3.0) << "two-sided " << twoSidedError << ", one-sided " << oneSidedError;
 }
 
 TEST(Bake, SameBytesWithOneOrTwoThreads) {

@@ -192,10 +192,11 @@ TEST(RunCommand, AGeoreferencedScanGivesTheSameAssetAsTheScanAtZero) {
   const std::string nearApo = fileBytes(dir / "near" / "scan.apo"), farApo = fileBytes(dir / "far" / "scan.apo");
   ASSERT_GT(farApo.size(), 160u);
   // Format version 1 without an origin, 2 with one; 3 for both when some
-  // leaves show m's own normal (the origin in the header's extension, zero
-  // for the scan at zero). The same payload after the header either way.
-  EXPECT_TRUE(nearApo[8] == 1 || nearApo[8] == 3) << int{nearApo[8]};
-  EXPECT_EQ(farApo[8], nearApo[8] == 3 ? 3 : 2);
+  // leaves show m's own normal, 4 when some are two-sided (the origin in the
+  // header's extension, zero for the scan at zero). The same payload after
+  // the header either way.
+  EXPECT_TRUE(nearApo[8] == 1 || nearApo[8] == 3 || nearApo[8] == 4) << int{nearApo[8]};
+  EXPECT_EQ(farApo[8], nearApo[8] == 1 ? 2 : nearApo[8]);
   const auto headerSize = [](const std::string& bytes) { return static_cast<unsigned char>(bytes[16]) | static_cast<unsigned char>(bytes[17]) << 8; };
   EXPECT_EQ(nearApo.substr(headerSize(nearApo)), farApo.substr(headerSize(farApo)));
   EXPECT_EQ(fileBytes(dir / "near" / "texture.png"), fileBytes(dir / "far" / "texture.png"));

@@ -372,7 +372,8 @@ TEST(DecodeApo, RejectsAnOffsetOffTheLayout) {
 TEST(DecodeApo, RejectsAKindMaskThatDisagreesWithTheChild) {
   ApoTexture texture = tinyFlat();
   texture.texels[4 * 2 + 3] = 0x09;  // root says child 0 is internal too
-  expectRejected(texture, "texel 3: its parent's kind mask says internal node");
+  // A kind bit on a leaf would make it two-sided: not in a texture counting none.
+  expectRejected(texture, "texel 3: its parent's kind mask says two texels, but its child mask is 0");
   texture.texels[4 * 2 + 3] = 0x18;  // a kind bit for the absent child 4
   expectRejected(texture, "kind mask 0x18 marks children absent from the child mask 0x89");
 }
@@ -384,7 +385,7 @@ TEST(DecodeApo, RejectsNonZeroPaddingAndWrongCounts) {
   ApoTexture counts = tinyFlat();
   counts.leafNodes -= 2;
   counts.internalNodes += 1;  // same used texels, other split
-  expectRejected(counts, "with 4 leaves and 2 internal nodes");
+  expectRejected(counts, "with 4 leaves (0 two-sided) and 2 internal nodes");
   ApoTexture shortTexels = tinyFlat();
   shortTexels.texels.pop_back();
   expectRejected(shortTexels, "bytes of texels for a 4 x 3 texture");
@@ -484,6 +485,142 @@ TEST(LeavesShowingM, AnInternalNodeHoldingTheCodeIsRefused) {
   const Result<Octree> decoded = decodeApo(texture);
   ASSERT_FALSE(decoded.ok());
   EXPECT_THAT(decoded.error().message, HasSubstr("only leaves hold"));
+}
+
+// ---- Two-sided leaves (format version 4) --------------------------------------
+//
+// The tiny tree with leaf {3, 1} two-sided on z: +z where m's normal has
+// z >= 0, -z elsewhere.
+Octree tinyTreeTwoSided() {
+  Octree octree = tinyTree();
+  for (OctreeNode& node : octree.nodes)
+    if (node.isLeaf() && node.normal.y() < -0.5f) {
+      node.twoSided = true;
+      node.sideAxis = 2;
+      node.sides = {Vec3f::UnitZ(), -Vec3f::UnitZ()};
+    }
+  return octree;
+}
+
+TEST(TwoSidedLeaves, TakeTwoTexelsFlaggedByTheParentsKindBitByHand) {
+  const ApoTexture texture = encodeOrDie(tinyTreeTwoSided(), 0, NormalEncoding::Xyz8);
+  EXPECT_EQ(texture.leafNodes, 4u);
+  EXPECT_EQ(texture.twoSidedLeaves, 1u);
+  EXPECT_EQ(texture.internalNodes, 2u);
+  EXPECT_EQ(texture.usedTexels(), 10u);
+  EXPECT_TRUE(texture.needsCoarseNormals());
+  const Texels expected = {
+      {0x01, 0x00, 0x00, 0x00},  // 0: grid entry -> the root at texel 1
+      {0x02, 0x00, 0x00, 0x89},  // 1: root: brood at 3; children 0, 3, 7
+      {0x80, 0x80, 0xFF, 0x08},  // 2: root normal +z; kind: child 3 takes two texels
+      {0xFF, 0x80, 0x80, 0x00},  // 3: child 0, leaf +x
+      {0x03, 0x00, 0x00, 0x42},  // 4: child 3: brood at 7; children 1, 6
+      {0x00, 0x80, 0x80, 0x02},  // 5: child 3 normal -x; kind: child 1 takes two texels
+      {0x80, 0xFF, 0x80, 0x00},  // 6: child 7, leaf +y
+      {0x80, 0x80, 0xFF, 0x00},  // 7: child 3.1, side 0 +z (a leaf: mask 0)
+      {0x80, 0x80, 0x00, 0x02},  // 8: child 3.1, side 1 -z, axis z
+      {0x80, 0x80, 0x00, 0x00},  // 9: child 3.6, leaf -z
+      {0, 0, 0, 0},              // 10-11: the rest of the last row
+      {0, 0, 0, 0},
+  };
+  EXPECT_EQ(texelsOf(texture), expected);
+}
+
+TEST(TwoSidedLeaves, TheLookupsPickTheSideByMsNormal) {
+  const Vec3f inTwoSided(0.875f, 0.375f, 0.125f);
+  const Octree octree = tinyTreeTwoSided();
+  for (const int completeDepth : {0, 1}) {
+    const ApoTexture texture = encodeOrDie(octree, completeDepth, NormalEncoding::Oct24);
+    const std::uint32_t first = completeDepth == 0 ? 7 : 12;
+    const Lookup up = lookupTexture(texture, inTwoSided, 255, Vec3f(0.3f, -0.9f, 0.1f).normalized());
+    EXPECT_TRUE(up.found && up.twoSided);
+    EXPECT_EQ(up.texel, first);
+    EXPECT_GT(up.normal.dot(Vec3f::UnitZ()), 0.9999f);
+    const Lookup down = lookupTexture(texture, inTwoSided, 255, Vec3f(0.9f, 0.3f, -0.1f).normalized());
+    EXPECT_EQ(down.texel, first) << "the node is the same, only its normal differs";
+    EXPECT_GT(down.normal.dot(-Vec3f::UnitZ()), 0.9999f);
+    // Without m, side 0; z exactly 0 is side 0 too.
+    EXPECT_GT(lookupTexture(texture, inTwoSided).normal.dot(Vec3f::UnitZ()), 0.9999f);
+    EXPECT_GT(lookupTexture(texture, inTwoSided, 255, Vec3f::UnitX()).normal.dot(Vec3f::UnitZ()), 0.9999f);
+    // The same answers from the octree, and from the decoded octree.
+    const Result<Octree> decoded = decodeApo(texture);
+    ASSERT_TRUE(decoded.ok()) << decoded.error().message;
+    for (const Octree* tree : {&octree, &*decoded}) {
+      EXPECT_GT(lookupOctree(*tree, inTwoSided, 255, Vec3f(0, 0, 1)).normal.dot(Vec3f::UnitZ()), 0.9999f);
+      EXPECT_GT(lookupOctree(*tree, inTwoSided, 255, Vec3f(0, 0, -1)).normal.dot(-Vec3f::UnitZ()), 0.9999f);
+    }
+    EXPECT_EQ(std::count_if(decoded->nodes.begin(), decoded->nodes.end(),
+                            [](const OctreeNode& n) { return n.twoSided && n.sideAxis == 2; }),
+              1);
+    // The filter blends the side m picks: every neighbour of the leaf at its
+    // depth is elsewhere in the tree, so the side shows through the blend.
+    const Lookup filteredUp = lookupTextureFiltered(texture, inTwoSided, Vec3f::UnitZ());
+    const Lookup filteredDown = lookupTextureFiltered(texture, inTwoSided, -Vec3f::UnitZ());
+    EXPECT_GT(filteredUp.normal.dot(Vec3f::UnitZ()), 0.0f);
+    EXPECT_LT(filteredDown.normal.dot(Vec3f::UnitZ()), 0.0f);
+  }
+}
+
+// Random trees with random two-sided leaves below the grid: the texture's
+// walk, the octree's and the decoded octree's agree for random m normals.
+TEST(TwoSidedLeaves, TheTextureWalkAgreesWithTheOctreeOnRandomTrees) {
+  for (const int completeDepth : {0, 2}) {
+    Octree octree = test::randomOctree(44, 2, 7, 0.6);
+    std::mt19937_64 random(45);
+    std::bernoulli_distribution pick(0.5);
+    std::uniform_int_distribution<int> axis(0, 2);
+    int twoSided = 0;
+    for (OctreeNode& node : octree.nodes)
+      if (node.isLeaf() && node.depth > completeDepth && pick(random)) {
+        node.twoSided = true;
+        node.sideAxis = static_cast<std::uint8_t>(axis(random));
+        node.sides = {test::randomUnitVector(random), test::randomUnitVector(random)};
+        ++twoSided;
+      }
+    ASSERT_GT(twoSided, 50);
+    const NormalEncoding encoding = NormalEncoding::Oct24;
+    const ApoTexture texture = encodeOrDie(octree, completeDepth, encoding);
+    EXPECT_EQ(texture.twoSidedLeaves, static_cast<std::uint64_t>(twoSided));
+    const Result<Octree> decoded = decodeApo(texture);
+    ASSERT_TRUE(decoded.ok()) << decoded.error().message;
+    std::size_t onTwoSided = 0;
+    for (const Vec3f& p : lookupPoints(50000, 10)) {
+      const Vec3f m = test::randomUnitVector(random);
+      const Lookup expected = lookupOctree(octree, p, 255, m);
+      const Lookup actual = lookupTexture(texture, p, 255, m);
+      if (!actual.found) continue;
+      ASSERT_EQ(actual.twoSided, expected.twoSided) << p.transpose();
+      ASSERT_EQ(actual.normal, decodeNormal(encodeNormal(expected.normal, encoding), encoding)) << p.transpose();
+      ASSERT_EQ(lookupOctree(*decoded, p, 255, m).normal, actual.normal) << p.transpose();
+      onTwoSided += actual.twoSided ? 1 : 0;
+    }
+    EXPECT_GT(onTwoSided, 300u);
+  }
+}
+
+TEST(TwoSidedLeaves, TheDecoderRefusesWhatTheEncoderNeverWrites) {
+  const ApoTexture good = encodeOrDie(tinyTreeTwoSided(), 0, NormalEncoding::Xyz8);
+  ApoTexture axis = good;
+  axis.texels[4 * 8 + 3] = 3;
+  expectRejected(axis, "texel 8: a two-sided leaf's axis is 3");
+  ApoTexture code = good;
+  for (int channel = 0; channel < 3; ++channel) code.texels[4 * 8 + channel] = 0x80;
+  expectRejected(code, "a side of a two-sided leaf holds the code of m's own normal");
+  ApoTexture uncounted = good;
+  uncounted.twoSidedLeaves = 0;
+  uncounted.leafNodes += 1;  // the same used texels, counted as one-texel leaves
+  expectRejected(uncounted, "which only files counting two-sided leaves (format version 4) hold");
+}
+
+TEST(TwoSidedLeaves, TheEncoderRefusesOneAtTheCompletionDepth) {
+  // Grid nodes have no parent to flag their two texels.
+  Octree octree = test::octreeFromPaths({{0, 1}, {3, 1}, {3, 6}}, [](const ChildPath&) { return Vec3f(Vec3f::UnitX()); });
+  octree.nodes.back().twoSided = true;
+  octree.nodes.back().sides = {Vec3f::UnitX(), -Vec3f::UnitX()};
+  ASSERT_TRUE(encodeApo(octree, 1, NormalEncoding::Xyz8, 2, 12).ok());
+  const Result<ApoTexture> texture = encodeApo(octree, 2, NormalEncoding::Xyz8, 2, 12);
+  ASSERT_FALSE(texture.ok());
+  EXPECT_THAT(texture.error().message, HasSubstr("two-sided leaf at the completion depth 2"));
 }
 
 }  // namespace

@@ -105,6 +105,7 @@ void expectSameTexture(const ApoTexture& a, const ApoTexture& b) {
   EXPECT_EQ(a.height, b.height);
   EXPECT_EQ(a.leafNodes, b.leafNodes);
   EXPECT_EQ(a.internalNodes, b.internalNodes);
+  EXPECT_EQ(a.twoSidedLeaves, b.twoSidedLeaves);
   EXPECT_TRUE(a.texels == b.texels);
 }
 
@@ -195,8 +196,8 @@ TEST(ApoFile, BadIdentityFields) {
   mangled.erase(4, 1);
   expectRejected(mangled, "(magic)");
   std::string version = good;
-  patch<std::uint32_t>(version, kVersionAt, 4);
-  expectRejected(version, "byte 8 (format version): expected 1 to 3 (the versions this reader knows), found 4");
+  patch<std::uint32_t>(version, kVersionAt, 5);
+  expectRejected(version, "byte 8 (format version): expected 1 to 4 (the versions this reader knows), found 5");
   std::string claimsTwo = good;
   patch<std::uint32_t>(claimsTwo, kVersionAt, 2);
   expectRejected(claimsTwo, "byte 16 (header size): expected 160 for format version 2, found 128");
@@ -229,6 +230,37 @@ TEST(ApoFile, LeavesShowingMMakeAVersion3File) {
   EXPECT_FALSE(parseApoFile(writtenBytes(tinyTexture()))->defersToCoarse);
 }
 
+TEST(ApoFile, TwoSidedLeavesMakeAVersion4FileCountingThemAtByte152) {
+  Octree octree = test::octreeFromPaths({{0}, {3, 1}, {3, 6}, {7}}, [](const test::ChildPath& path) {
+    return Vec3f(1.0f, static_cast<float>(path.size()), 0.0f).normalized();
+  });
+  OctreeNode& leaf = octree.nodes.back();  // {3, 6}, at depth 2
+  ASSERT_TRUE(leaf.isLeaf());
+  leaf.twoSided = true;
+  leaf.sideAxis = 1;
+  leaf.sides = {Vec3f::UnitY(), -Vec3f::UnitY()};
+  Result<ApoTexture> texture = encodeApo(octree, 0, NormalEncoding::Xyz8, 1, 2);
+  ASSERT_TRUE(texture.ok()) << texture.error().message;
+  const std::string bytes = writtenBytes(*texture);
+  EXPECT_EQ(fieldAt<std::uint32_t>(bytes, kVersionAt), 4u);
+  EXPECT_EQ(fieldAt<std::uint32_t>(bytes, kHeaderSizeAt), 160u);
+  EXPECT_EQ(fieldAt<std::uint64_t>(bytes, 152), 1u);
+  // grid 1 + leaves 4 + two-sided 1 + 2 x internal 2.
+  EXPECT_EQ(fieldAt<std::uint64_t>(bytes, kUsedTexelsAt), 10u);
+  const Result<ApoTexture> read = parseApoFile(bytes);
+  ASSERT_TRUE(read.ok()) << read.error().message;
+  expectSameTexture(*texture, *read);
+  EXPECT_TRUE(read->needsCoarseNormals());
+  // The count must be there in version 4, and absent before.
+  std::string uncounted = bytes;
+  std::fill(uncounted.begin() + 152, uncounted.begin() + 160, '\0');
+  EXPECT_THAT(parseApoFile(uncounted).error().message, HasSubstr("byte 152 (two-sided leaves): expected at least 1"));
+  std::string older = bytes;
+  older[kVersionAt] = 3;
+  EXPECT_THAT(parseApoFile(older).error().message,
+              HasSubstr("byte 152 (two-sided leaves): expected 0 in format version 3"));
+}
+
 // Version 2 (a scan in a local frame): the version-1 header, then the
 // origin at 128, 136 and 144 and 8 reserved zero bytes; the payload at 160.
 TEST(ApoFile, AnOriginMakesAVersion2FileThatReadsBack) {
@@ -257,7 +289,7 @@ TEST(ApoFile, AnOriginMakesAVersion2FileThatReadsBack) {
   expectRejected(nan, "byte 136 (origin y): expected a finite number, found nan");
   std::string reserved = bytes;
   reserved[155] = 1;
-  expectRejected(reserved, "byte 152 (reserved): expected 0");
+  expectRejected(reserved, "byte 152 (two-sided leaves): expected 0 in format version 2");
   expectRejected(bytes.substr(0, 150), "byte 144 (origin z): the file ends after 150 bytes");
   EXPECT_EQ(describeApoFileByte(bytes, 140), "the header's origin y (bytes 136 to 143)");
   EXPECT_EQ(describeApoFileByte(bytes, 160), "texel 0, channel R (a grid entry: the grid has 1 texels)");
@@ -303,7 +335,7 @@ TEST(ApoFile, BadSizes) {
   expectRejected(rows, "byte 60 (height): expected 5 rows for 9 used texels at width 2, found 6");
   std::string used = good;
   patch<std::uint64_t>(used, kUsedTexelsAt, 10);
-  expectRejected(used, "byte 80 (used texels): expected grid + leaves + 2 x internal nodes = 1 + 4 + 2 x 2, found 10");
+  expectRejected(used, "byte 80 (used texels): expected grid + leaves + two-sided leaves + 2 x internal nodes = 1 + 4 + 0 + 2 x 2, found 10");
   std::string padded = good + std::string(4, '\0');
   expectRejected(padded, "byte 88 (payload size): the header claims 48 bytes of texels, but the file has 52");
 }
@@ -336,7 +368,7 @@ TEST(ApoFile, StructureIsValidatedBehindAValidChecksum) {
   std::string counts = good;
   patch<std::uint64_t>(counts, kLeafNodesAt, 2);
   patch<std::uint64_t>(counts, kInternalNodesAt, 3);
-  expectRejected(counts, "payload: the nodes end at texel 9 with 4 leaves and 2 internal nodes");
+  expectRejected(counts, "payload: the nodes end at texel 9 with 4 leaves (0 two-sided) and 2 internal nodes");
 }
 
 TEST(ApoFile, RandomCorruptionIsBadInputOrAValidTexture) {
