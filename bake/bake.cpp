@@ -210,6 +210,7 @@ void countNodes(const Octree& octree, BakeReport& report) {
     if (report.nodesPerDepth.size() <= node.depth) report.nodesPerDepth.resize(node.depth + 1, 0);
     ++report.nodesPerDepth[node.depth];
     ++(node.isLeaf() ? report.leaves : report.internalNodes);
+    report.refinement.internalNodesShowingCoarse += !node.isLeaf() && node.coarseNormal ? 1 : 0;
   }
 }
 
@@ -266,7 +267,8 @@ Result<Bake> bakeWith(const DetailSurface& detail, const CoarseSurface& coarseSu
 
   reportProgress(onProgress, kSamplingStart);
   phase = Stopwatch();
-  const sampling::SamplingSettings sampling{options.samples, reach};
+  // With a budget, internal nodes may show m's normals, as leaves may.
+  const sampling::SamplingSettings sampling{options.samples, reach, options.budget > 0};
   const sampling::SampleCounts counts = sampling::sampleNormalField(
       built, {&coarseUnit, &coarse.points.positions, &coarseNormals}, detail, sampling,
       [&](std::size_t done, std::size_t total) {

@@ -62,6 +62,7 @@ struct RefinementReport {
   double l21 = 0.0;                // sum over the leaves
   double rmsDegrees = 0.0;         // M's normals about their leaf's mean
   std::uint64_t leavesShowingCoarse = 0, twoSidedLeaves = 0, leavesAtMaxDepth = 0;
+  std::uint64_t internalNodesShowingCoarse = 0;  // where mip-mapped walks stop, m's normal
 };
 
 struct BakeReport {

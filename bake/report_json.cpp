@@ -19,6 +19,7 @@ std::string bakeReportJson(const BakeReport& r) {
                         {"rms_degrees", f.rmsDegrees},
                         {"leaves_showing_m", f.leavesShowingCoarse},
                         {"two_sided_leaves", f.twoSidedLeaves},
+                        {"internal_nodes_showing_m", f.internalNodesShowingCoarse},
                         {"leaves_at_max_depth", f.leavesAtMaxDepth}};
   json["sampling"] = {{"rays", r.rays}, {"samples_hit", r.hits}, {"samples_fallback", r.fallbacks}};
   json["texture"] = {{"width", r.textureWidth}, {"height", r.textureHeight}, {"bytes", r.textureBytes}};

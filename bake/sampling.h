@@ -11,6 +11,9 @@ namespace apo::sampling {
 struct SamplingSettings {
   int samples = 4;           // ray origins per (leaf, triangle of m)
   double maxDistance = 0.0;  // world units; a cell's reach is at least its diagonal
+  // An internal node shows m's own normal (OctreeNode::coarseNormal) where
+  // m's normals are closer to the samples below it than its mean normal is.
+  bool internalNodesMayShowCoarse = false;
 };
 
 struct SampleCounts {
@@ -29,7 +32,7 @@ struct CoarseFrames {
 // Fills every leaf's normal (the area-weighted mean of M's normals hit by
 // rays from m's triangles in the cell) and weight (m's area in the cell),
 // then every internal node's, bottom-up, as the weighted mean of its
-// children. Parallel over leaves; the result does not depend on the thread
+// children (or m's normal, with internalNodesMayShowCoarse). Parallel over leaves; the result does not depend on the thread
 // count. `onChunkDone(done, total)`, when given, is called from the worker
 // threads as chunks of leaves finish.
 SampleCounts sampleNormalField(octree::BuiltOctree& built, const CoarseFrames& coarse, const DetailSurface& detail,

@@ -115,8 +115,9 @@ class ForestReader {
     if (internal && next_ + 2 > used_)
       return badInput("texel {}: an internal node's second texel is past the {} used texels", next_, used_);
     node.normal = texel::rgb(texture_.texels, internal ? next_ + 1 : next_);
-    if (internal && isCoarseCode(texture_, node.normal))
-      return badInput("texel {}: an internal node's normal is the code of m's own normal, which only leaves hold",
+    if (internal && isCoarseCode(texture_, node.normal) && !texture_.coarseAtInternalNodes)
+      return badInput("texel {}: an internal node's normal is the code of m's own normal, which only leaves hold "
+                      "before format version 4",
                       next_ + 1);
     if (internal) node.kindMask = texel::alpha(texture_.texels, next_ + 1);
     if (node.kindMask & ~node.childMask)

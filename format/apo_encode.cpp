@@ -171,7 +171,7 @@ class ForestEncoder {
     const std::array<std::uint8_t, 4> offsetBytes = littleEndian(*offset);
     grow(texels);
     putTexel(texels, item.texel, {offsetBytes[0], offsetBytes[1], offsetBytes[2]}, node.childMask);
-    putTexel(texels, item.texel + 1, normal, kindMaskOf(octree_, node));
+    putTexel(texels, item.texel + 1, node.coarseNormal ? coarseBytes() : normal, kindMaskOf(octree_, node));
     return okStatus();
   }
 
@@ -208,8 +208,12 @@ Result<ApoTexture> encodeApo(const Octree& octree, int completeDepth, NormalEnco
   texture.maxDepth = maxDepth;
   texture.completeDepth = static_cast<std::uint8_t>(completeDepth);
   texture.encoding = encoding;
-  texture.defersToCoarse = std::any_of(octree.nodes.begin(), octree.nodes.end(),
-                                       [](const OctreeNode& node) { return node.isLeaf() && node.coarseNormal; });
+  // Nodes above the grid are not stored: their marks do not count.
+  const auto shownCoarse = [&](const OctreeNode& node) { return node.coarseNormal && node.depth >= completeDepth; };
+  texture.defersToCoarse = std::any_of(octree.nodes.begin(), octree.nodes.end(), shownCoarse);
+  texture.coarseAtInternalNodes = std::any_of(octree.nodes.begin(), octree.nodes.end(), [&](const OctreeNode& node) {
+    return !node.isLeaf() && shownCoarse(node);
+  });
   // Grid entries of empty cells stay kEmptyCell.
   texture.texels.assign(4 * texture.gridTexels(), 0xFF);
 
@@ -226,8 +230,8 @@ Result<ApoTexture> encodeApo(const Octree& octree, int completeDepth, NormalEnco
   texture.leafNodes = encoder.leaves();
   texture.internalNodes = encoder.internalNodes();
   texture.twoSidedLeaves = encoder.twoSidedLeaves();
-  // Version 4 files are version 3 files with two-sided leaves: a reader
-  // takes the code of m's normal as such in both.
+  // Version 4 files are version 3 files with two-sided leaves or internal
+  // nodes showing m: a reader takes the code of m's normal as such in both.
   texture.defersToCoarse = texture.defersToCoarse || texture.twoSidedLeaves > 0;
   const std::uint64_t used = encoder.usedTexels();
   APO_CHECK_OP(used, ==, texture.usedTexels());

@@ -83,7 +83,8 @@ constexpr std::uint32_t kFormatVersionWithOrigin = 2;
 // leaf does.
 constexpr std::uint32_t kFormatVersionDeferringToCoarse = 3;
 // Version 4: version 3, and leaves of two texels (one normal per side of m),
-// counted at byte 152. Written only when some leaf is two-sided.
+// counted at byte 152, and internal nodes that may show m's normal. Written
+// only when some leaf is two-sided or some internal node shows m.
 constexpr std::uint32_t kFormatVersionTwoSided = 4;
 constexpr std::uint32_t kNewestFormatVersion = kFormatVersionTwoSided;
 bool hasOrigin(std::uint32_t version) { return version >= kFormatVersionWithOrigin; }
@@ -159,7 +160,7 @@ Header headerOf(const ApoTexture& texture) {
   Header header;
   header.magic = kMagicBytes;
   header.origin = texture.origin;
-  header.version = texture.twoSidedLeaves > 0                     ? kFormatVersionTwoSided
+  header.version = texture.twoSidedLeaves > 0 || texture.coarseAtInternalNodes ? kFormatVersionTwoSided
                    : texture.defersToCoarse                       ? kFormatVersionDeferringToCoarse
                    : header.origin == std::array<double, 3>{} ? kFormatVersion
                                                               : kFormatVersionWithOrigin;
@@ -315,9 +316,6 @@ Status checkOrigin(const Header& header) {
   if (header.version < kFormatVersionTwoSided && header.twoSidedLeaves != 0)
     return fieldError(kTwoSidedLeaves, "expected 0 in format version {} (two-sided leaves came with version 4), found {}",
                       header.version, header.twoSidedLeaves);
-  if (header.version >= kFormatVersionTwoSided && header.twoSidedLeaves == 0)
-    return fieldError(kTwoSidedLeaves, "expected at least 1 in format version 4 (a file without two-sided leaves is "
-                      "version 1, 2 or 3), found 0");
   return okStatus();
 }
 
@@ -401,6 +399,7 @@ ApoTexture textureOf(const Header& header, std::vector<std::uint8_t> texels) {
   // Version 4 is version 3 with two-sided leaves: both may hold m's code.
   texture.defersToCoarse = header.version >= kFormatVersionDeferringToCoarse;
   texture.twoSidedLeaves = header.twoSidedLeaves;
+  texture.coarseAtInternalNodes = header.version >= kFormatVersionTwoSided;
   return texture;
 }
 

@@ -143,12 +143,12 @@ Lookup lookupOctree(const Octree& octree, const Vec3f& unitPoint, int maxDepth, 
   int depth = 0;
   for (;;) {
     const OctreeNode& node = octree.nodes[index];
-    if (node.isLeaf() && node.coarseNormal) return {true, coarseNormal, index, depth, true};
     if (node.isLeaf() && node.twoSided)
       return {true, node.sides[leafSide(coarseNormal, node.sideAxis)], index, depth, false, true};
-    if (node.isLeaf() || depth >= maxDepth) return {true, node.normal, index, depth};
+    const Lookup stop{true, node.coarseNormal ? coarseNormal : node.normal, index, depth, node.coarseNormal};
+    if (node.isLeaf() || depth >= maxDepth) return stop;
     const int child = childIndex(centre, unitPoint);
-    if (!hasChild(node.childMask, child)) return {true, node.normal, index, depth};
+    if (!hasChild(node.childMask, child)) return stop;
     checkBrood(octree, node);
     index = childNode(node, child);
     centre = childCentre(centre, width, child);

@@ -48,9 +48,11 @@ struct OctreeNode {
   std::uint32_t firstChild = kNoChild;  // the children are contiguous, in increasing child index
   std::uint8_t childMask = 0;           // bit c set when child c exists (intersects m)
   std::uint8_t depth = 0;
-  // A leaf that shows m's own interpolated normal (m is closer to M there
-  // than any one normal of the cell): stored as the reserved normal code of
-  // format version 3; `normal` is still the cell's, for the levels above.
+  // A node that shows m's own interpolated normal where a walk stops at it
+  // (m is closer to M there than the cell's one normal): stored as the
+  // reserved normal code, for leaves since format version 3, for internal
+  // nodes (walks stopped early: mip-mapping) since version 4; `normal` is
+  // still the cell's, for the levels above.
   bool coarseNormal = false;
   // A two-sided leaf (format version 4): a cell holding both sides of a
   // thin part (or a surface that turns), whose M normals form two groups
@@ -108,6 +110,9 @@ struct ApoTexture {
   // Format version 4: leaves of two texels, one normal per side of m
   // (OctreeNode::twoSided); counted among leafNodes too.
   std::uint64_t twoSidedLeaves = 0;
+  // Format version 4: internal nodes may hold the code of m's own normal
+  // too. Set by the encoder when one does, and by the reader for version 4.
+  bool coarseAtInternalNodes = false;
 
   std::uint64_t gridTexels() const { return std::uint64_t{1} << (3 * completeDepth); }
   std::uint64_t usedTexels() const;  // grid + nodes; the rest of the last row is zero

@@ -283,6 +283,49 @@ TEST(ThinShellBake, TwoSidedLeavesFollowBothSheetsWhereOneNormalCannot) {
   EXPECT_LT(twoSidedError, oneSidedError / 3.0) << "two-sided " << twoSidedError << ", one-sided " << oneSidedError;
 }
 
+// Where a mip-mapped walk stops early, at internal nodes above the thin
+// part, their mean averages both sheets; they show m's normal instead.
+TEST(ThinShellBake, InternalNodesAboveBothSheetsShowMsNormal) {
+  const test::ThinShell shell;
+  const Scan detail = shell.mesh(100, true);
+  const Scan coarse = shell.mesh(8, false);
+  BakeOptions options;
+  options.coarseDepth = 4;
+  options.maxDepth = 7;
+  options.budget = 256u << 10;
+  auto bake = bakeApo(detail, coarse, options);
+  ASSERT_TRUE(bake.ok()) << bake.error().message;
+  EXPECT_GT(bake->report.refinement.internalNodesShowingCoarse, 100u);
+  EXPECT_TRUE(bake->texture.coarseAtInternalNodes);
+  Octree means = bake->octree;  // the same tree with every internal node showing its mean
+  for (OctreeNode& node : means.nodes)
+    if (!node.isLeaf()) node.coarseNormal = false;
+  std::mt19937 random(12);
+  std::uniform_real_distribution<float> inside(0.05f, 0.95f);
+  double early = 0.0, mean = 0.0, coarseError = 0.0;
+  int count = 0;
+  for (int i = 0; i < 10000; ++i) {
+    const float u = inside(random), v = inside(random);
+    const int side = i % 2;
+    const Vec3f p = bake->texture.transform.toUnit(shell.coarsePoint(u, v, side));
+    const Vec3f m = shell.coarseNormal(side), truth = shell.normal(u, v, side);
+    const Lookup stopped = lookupTexture(bake->texture, p, options.coarseDepth + 1, m);
+    if (!stopped.found || stopped.depth != options.coarseDepth + 1) continue;
+    early += degreesBetween(stopped.normal, truth);
+    mean += degreesBetween(lookupOctree(means, p, options.coarseDepth + 1, m).normal, truth);
+    coarseError += degreesBetween(m, truth);
+    ++count;
+  }
+  ASSERT_GT(count, 5000);
+  early /= count;
+  mean /= count;
+  coarseError /= count;
+  std::printf("thin shell, walks stopped at depth %d: %.3f degrees (m alone %.3f, the nodes' means %.3f)\n",
+              options.coarseDepth + 1, early, coarseError, mean);
+  EXPECT_LT(early, 1.1 * coarseError);
+  EXPECT_GT(mean, 20.0) << "the means average both sheets";
+}
+
 TEST(Bake, SameBytesWithOneOrTwoThreads) {
   const test::BumpySphere shape;
   const Scan coarse = test::makeIcosphere(2);

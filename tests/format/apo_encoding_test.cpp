@@ -623,5 +623,38 @@ TEST(TwoSidedLeaves, TheEncoderRefusesOneAtTheCompletionDepth) {
   EXPECT_THAT(texture.error().message, HasSubstr("two-sided leaf at the completion depth 2"));
 }
 
+// Internal nodes showing m (version 4): a walk stopped early at one (the
+// mip-mapping's maxDepth, or a missing child) answers m's normal.
+TEST(InternalNodesShowingM, AnswerTheCallersNormalWhereAWalkStopsAtThem) {
+  Octree octree = tinyTree();
+  for (OctreeNode& node : octree.nodes)
+    if (!node.isLeaf() && node.depth == 1) node.coarseNormal = true;  // child 3
+  const Vec3f m = Vec3f(1.0f, 2.0f, 2.0f).normalized();
+  for (const NormalEncoding encoding : {NormalEncoding::Xyz8, NormalEncoding::Oct24}) {
+    const ApoTexture texture = encodeOrDie(octree, 0, encoding);
+    EXPECT_TRUE(texture.coarseAtInternalNodes && texture.defersToCoarse);
+    // Texel 5 is child 3's normal texel (EncodeApo.TinyTreeWithoutCompletionByHand).
+    const std::uint32_t code = encoding == NormalEncoding::Xyz8 ? 0x808080u : 0x000FFFu;
+    EXPECT_EQ(texelsOf(texture)[5][0], static_cast<std::uint8_t>(code & 0xFF));
+    EXPECT_EQ(texelsOf(texture)[5][3], 0x00) << "its kind mask is unchanged";
+    // Stopped at depth 1 inside child 3, or at its missing child 0: m.
+    const Lookup early = lookupTexture(texture, {0.875f, 0.375f, 0.125f}, 1, m);
+    EXPECT_TRUE(early.found && early.coarse);
+    EXPECT_EQ(early.normal, m);
+    EXPECT_EQ(lookupTexture(texture, {0.875f, 0.375f, 0.375f}, 255, m).normal, m);
+    // The walk to the leaf below is unchanged.
+    EXPECT_GT(lookupTexture(texture, {0.875f, 0.375f, 0.125f}, 255, m).normal.dot(-Vec3f::UnitY()), 0.9999f);
+    // The octree and the decoded octree answer the same.
+    const Result<Octree> decoded = decodeApo(texture);
+    ASSERT_TRUE(decoded.ok()) << decoded.error().message;
+    for (const Octree* tree : {static_cast<const Octree*>(&octree), &*decoded})
+      EXPECT_EQ(lookupOctree(*tree, {0.875f, 0.375f, 0.125f}, 1, m).normal, m);
+    // A texture that does not allow it (version 3) refuses it.
+    ApoTexture older = texture;
+    older.coarseAtInternalNodes = false;
+    expectRejected(older, "which only leaves hold before format version 4");
+  }
+}
+
 }  // namespace
 }  // namespace apo
