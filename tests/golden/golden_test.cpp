@@ -6,13 +6,16 @@
 // and review `git diff tests/golden` before committing.
 //
 // v1/ holds the .apo of format version 1: whatever later versions write, the
-// v1 file must stay readable with the same normals (ReadsTheV1Apo).
+// v1 file must stay readable with the same normals (ReadsTheV1Apo). v4/
+// holds one of format version 4 (two-sided leaves, leaves and internal nodes
+// showing m's normal), read the same way (ReadsTheV4Apo).
 #include "core/file_io.h"
 #include "format/format.h"
 #include "ingest/ingest.h"
 #include "pipeline/bake_seams.h"
 #include "reconstruct/reconstruct.h"
 #include "tests/bake/bumpy_sphere.h"
+#include "tests/bake/thin_shell.h"
 #include "tests/test_support.h"
 
 #include <fmt/format.h>
@@ -189,6 +192,48 @@ TEST_F(Golden, BakeWithABudgetGivesTheGoldenApo) {
   EXPECT_EQ(bake->report.refinement.stoppedBy, "budget");
   EXPECT_LE(bake->texture.texels.size() + 128, options.budget);
   expectGolden(apoBytes(bake->texture), kCurrent / "budget.apo", apoField);
+}
+
+// A thin part under a budget: two-sided leaves and nodes showing m, so
+// format version 4, written from a generated input (the thin shell of
+// tests/bake/thin_shell.h).
+struct ThinShellInput {
+  test::ThinShell shell;
+  Scan detail = shell.mesh(24, true), coarse = shell.mesh(4, false);
+};
+
+TEST_F(Golden, BakeWithTwoSidedLeavesGivesTheGoldenV4Apo) {
+  const ThinShellInput in;
+  BakeOptions options = goldenBake();
+  options.error = 0.0;
+  options.budget = 16000;
+  auto bake = bakeApo(in.detail, in.coarse, options);
+  ASSERT_TRUE(bake.ok()) << bake.error().message;
+  EXPECT_GT(bake->texture.twoSidedLeaves, 0u);
+  const std::string bytes = apoBytes(bake->texture);
+  EXPECT_EQ(bytes[8], 4) << "format version";
+  expectGolden(bytes, kGolden / "v4" / "thin_shell.apo", apoField);
+}
+
+// Normals of the v4 golden at points of both sheets of m, given m's normal
+// there, as decoded when it was written.
+TEST_F(Golden, ReadsTheV4Apo) {
+  auto texture = readApoFile(kGolden / "v4" / "thin_shell.apo");
+  ASSERT_TRUE(texture.ok()) << texture.error().message;
+  const ThinShellInput in;
+  std::string text;
+  for (int i = 0; i <= 20; ++i)
+    for (int j = 0; j <= 20; ++j)
+      for (int side = 0; side < 2; ++side) {
+        const Vec3f unit = texture->transform.toUnit(in.shell.coarsePoint(0.05f * i, 0.05f * j, side));
+        const Vec3f m = in.shell.coarseNormal(side);
+        const Lookup plain = lookupTexture(*texture, unit, 255, m), filtered = lookupTextureFiltered(*texture, unit, m);
+        text += fmt::format("{} {} {:.9g} {:.9g} {:.9g} {:.9g} {:.9g} {:.9g}\n", plain.found ? 1 : 0,
+                            plain.twoSided ? 2 : plain.coarse ? 1 : 0, plain.normal.x(), plain.normal.y(),
+                            plain.normal.z(), filtered.normal.x(), filtered.normal.y(), filtered.normal.z());
+      }
+  EXPECT_NE(text.find(" 2 "), std::string::npos) << "some points on two-sided leaves";
+  expectGolden(text, kGolden / "v4" / "lookups.txt", textLine);
 }
 
 // Normals of the v1 golden at fixed world points, as decoded when it was
