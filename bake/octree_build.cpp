@@ -244,7 +244,7 @@ double squaredRadians(double degrees) {
 // where the one normal averages opposite sides, leave far less. Measured
 // (docs/benchmarks.md, "Two-sided leaves"): at 0.5, many leaves of merely
 // curved cells took the second texel and the bundled meshes lost 0.3-2% at
-// 3 MiB; at 0.2, none lost and camel.off at 256 KiB gained 7.8% (docs/benchmarks.md).
+// 3 MiB; at 0.2, none lost more than 0.3% and camel.off at 256 KiB gained 7.8% (docs/benchmarks.md).
 constexpr double kTwoSidedAdvantage = 0.2;
 
 // What a leaf costs in error: its L2,1, the same with one normal per side
