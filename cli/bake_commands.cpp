@@ -114,7 +114,7 @@ void addLookupCommand(CLI::App& app, int& exitCode) {
   sub->add_option("-o,--out", command->output, "Output: one `nx ny nz` per point, `0 0 0` outside the octree")
       ->required();
   sub->add_option("--coarse", command->coarse,
-                  "m (m.ply): where leaves show m's own normal (format version 3), its normal at the closest point");
+                  "m (m.ply): where nodes show m's own normal or pick a side by it (format versions 3 and 4), its normal at the exact closest point");
   CLI::Option* depth = sub->add_option("--depth", command->depth, "Stop the walk at this depth")->capture_default_str();
   sub->add_flag("--filter", command->filter,
                 "Trilinear filtering of the 8 neighbouring cells, as the shader with filtering on and the report's "

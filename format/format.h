@@ -164,7 +164,8 @@ Lookup lookupTextureFiltered(const ApoTexture& texture, const Vec3f& unitPoint,
 Lookup lookupOctree(const Octree& octree, const Vec3f& unitPoint, int maxDepth = 255,
                     const Vec3f& coarseNormal = Vec3f::Zero());
 
-// The .apo file (format version 1). Reading validates every field and the
+// The .apo file (format versions 1 to 4: the writer picks the oldest that
+// holds the texture). Reading validates every field and the
 // payload checksum; a corrupt or truncated file is BadInput naming the field.
 Status writeApoFile(const std::filesystem::path& path, const ApoTexture& texture);
 Result<ApoTexture> readApoFile(const std::filesystem::path& path);
