@@ -3,7 +3,8 @@
 # default (--detail-source auto: the APO baked from M or from the points,
 # whichever is closer to the scan) against the best this m allows: the
 # lowest error against the scan over APOs baked from M and from the points
-# at the default and two finer --error thresholds (no byte limit). Every
+# at the default byte budget and at two fine --error thresholds without a
+# byte limit (--budget 0). Every
 # figure is the run's own against-the-scan measure (docs/render.md: 200,000
 # probes on m, filtered lookup, truth from the 8 nearest scan normals); m is
 # the same in every run of a scan (the bake's options do not change it).
@@ -37,12 +38,15 @@ for scan in "${scans[@]}"; do
   choice='j["results"]["bake"]["detail_source"]'
   best=$(against "$run"); how="auto"
   for source in mesh points; do
-    for error in 0.05 0.01 0.002; do
-      variant="$out/detail/$name-$source-$error"
-      $apo -q run "$scan" -o "$variant" --detail-source "$source" --error "$error" "${small[@]}" >>"$out/detail/log.txt" 2>&1
+    for refinement in "" "--budget 0 --error 0.01" "--budget 0 --error 0.002"; do
+      variant="$out/detail/$name-$source-$(echo "${refinement:-budget}" | tr -c 'A-Za-z0-9.\n' '_')"
+      # shellcheck disable=SC2086 # the refinement options split into words
+      $apo -q run "$scan" -o "$variant" --detail-source "$source" $refinement "${small[@]}" >>"$out/detail/log.txt" 2>&1
       cmp -s "$run/m.ply" "$variant/m.ply" || { echo "$name: m differs in $variant" >&2; exit 1; }
       figure=$(against "$variant")
-      if python3 -c "import sys; sys.exit(0 if float('$figure') < float('$best') else 1)"; then best=$figure; how="$source, --error $error"; fi
+      if python3 -c "import sys; sys.exit(0 if float('$figure') < float('$best') else 1)"; then
+        best=$figure; how="$source, ${refinement:-default budget}"
+      fi
     done
   done
   echo "| $name | $(json "$m" 'j["results"]["ingest"]["counts"]["points_out"]') | $(json "$m" "$choice[\"chosen\"]") |" \
