@@ -1,6 +1,8 @@
 // CGAL advancing front surface reconstruction with its default parameters.
 #include "adapters/cgal/cgal_jobs.h"
 
+#include "core/deterministic_heap.h"
+
 #include <CGAL/Advancing_front_surface_reconstruction.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 
@@ -28,7 +30,7 @@ std::vector<Kernel::Point_3> toCgal(const std::vector<Vec3f>& points) {
 }
 
 // Each triangle starting at its smallest index, triangles in lexicographic
-// order: CGAL lists the same triangles in an order that depends on addresses.
+// order: CGAL lists the triangles in the order of its containers.
 void sortCanonically(std::vector<Triangle>& triangles) {
   for (Triangle& t : triangles) std::rotate(t.begin(), std::min_element(t.begin(), t.end()), t.end());
   std::sort(triangles.begin(), triangles.end());
@@ -36,9 +38,14 @@ void sortCanonically(std::vector<Triangle>& triangles) {
 
 Result<Scan> reconstruct(const std::vector<Vec3f>& points) {
   const auto cgalPoints = toCgal(points);
-  std::vector<std::array<std::size_t, 3>> facets;
-  CGAL::advancing_front_surface_reconstruction(cgalPoints.begin(), cgalPoints.end(), std::back_inserter(facets),
-                                               kRadiusRatioBound, kBeta);
+  // CGAL breaks ties between candidate edges by their records' addresses:
+  // made in a deterministic heap, the surface depends on the points alone.
+  const auto facets = madeInDeterministicHeap([&] {
+    std::vector<std::array<std::size_t, 3>> made;
+    CGAL::advancing_front_surface_reconstruction(cgalPoints.begin(), cgalPoints.end(), std::back_inserter(made),
+                                                 kRadiusRatioBound, kBeta);
+    return made;
+  });
   if (facets.empty()) return badInput("advancing front reconstruction produced no surface from {} points", points.size());
   Scan mesh;
   mesh.points.positions = points;  // facets index the input order

@@ -3,6 +3,8 @@
 // triangles back on the original points.
 #include "adapters/cgal/cgal_jobs.h"
 
+#include "core/deterministic_heap.h"
+
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Scale_space_reconstruction_3/Advancing_front_mesher.h>
 #include <CGAL/Scale_space_reconstruction_3/Weighted_PCA_smoother.h>
@@ -34,28 +36,35 @@ Status validate(const std::vector<Vec3f>& points, double averageSpacing) {
 }
 
 // Each triangle starting at its smallest index, triangles in lexicographic
-// order: CGAL lists the same triangles in an order that depends on addresses.
+// order: CGAL lists the triangles in the order of its containers.
 void sortCanonically(std::vector<Triangle>& triangles) {
   for (Triangle& t : triangles) std::rotate(t.begin(), std::min_element(t.begin(), t.end()), t.end());
   std::sort(triangles.begin(), triangles.end());
 }
 
 Result<Scan> reconstruct(const std::vector<Vec3f>& points, double averageSpacing, double scaleSpacings) {
-  Reconstruction reconstruction;
-  for (const Vec3f& p : points) reconstruction.insert(Kernel::Point_3(p.x(), p.y(), p.z()));
-  const double scale = scaleSpacings * averageSpacing;
-  reconstruction.increase_scale(kSmoothingIterations, Smoother(scale * scale));  // takes the squared radius
-  reconstruction.reconstruct_surface(Mesher(kMaxEdgeSpacings * averageSpacing));
-  if (reconstruction.number_of_facets() == 0)
-    return badInput("scale-space reconstruction produced no surface from {} points", points.size());
-  // CGAL smooths its copy in place, without reordering: the facets' indices
-  // are the input order, so they index our unsmoothed points as well.
+  // The mesher is CGAL's advancing front, which breaks ties between
+  // candidate edges by their records' addresses: made in a deterministic
+  // heap, the surface depends on the points alone.
+  auto triangles = madeInDeterministicHeap([&] {
+    Reconstruction reconstruction;
+    for (const Vec3f& p : points) reconstruction.insert(Kernel::Point_3(p.x(), p.y(), p.z()));
+    const double scale = scaleSpacings * averageSpacing;
+    reconstruction.increase_scale(kSmoothingIterations, Smoother(scale * scale));  // takes the squared radius
+    reconstruction.reconstruct_surface(Mesher(kMaxEdgeSpacings * averageSpacing));
+    // CGAL smooths its copy in place, without reordering: the facets' indices
+    // are the input order, so they index our unsmoothed points as well.
+    std::vector<Triangle> made;
+    made.reserve(reconstruction.number_of_facets());
+    for (auto f = reconstruction.facets_begin(); f != reconstruction.facets_end(); ++f)
+      made.push_back({static_cast<std::uint32_t>((*f)[0]), static_cast<std::uint32_t>((*f)[1]),
+                      static_cast<std::uint32_t>((*f)[2])});
+    return made;
+  });
+  if (triangles.empty()) return badInput("scale-space reconstruction produced no surface from {} points", points.size());
   Scan mesh;
   mesh.points.positions = points;
-  mesh.triangles.reserve(reconstruction.number_of_facets());
-  for (auto f = reconstruction.facets_begin(); f != reconstruction.facets_end(); ++f)
-    mesh.triangles.push_back({static_cast<std::uint32_t>((*f)[0]), static_cast<std::uint32_t>((*f)[1]),
-                              static_cast<std::uint32_t>((*f)[2])});
+  mesh.triangles = std::move(triangles);
   sortCanonically(mesh.triangles);
   return mesh;
 }
