@@ -417,6 +417,10 @@ struct Leaf {
   Cell cell;
   std::vector<std::uint32_t> triangles, primitives;
   LeafError error;
+  // Children its split would keep (those holding some of m): counted when
+  // the leaf is made, as it is cheap (m's few triangles), to bound the
+  // split's value per texel before M is clipped into them.
+  int keptChildren = 1;
 };
 
 // A leaf and what splitting it would give: its kept children, evaluated.
@@ -478,9 +482,7 @@ class Refinement {
   Candidate evaluate(Leaf leaf) const {
     Candidate candidate;
     const Cell& cell = leaf.cell;
-    auto childTriangles = distribute(
-        leaf.triangles, cell, [&](std::uint32_t t) { return coarseBounds(coarse_, t); },
-        [&](std::uint32_t t, const Cell& child) { return coarseOverlaps(coarse_, t, child); }, 0xFF);
+    auto childTriangles = coarseInChildren(leaf);
     for (int c = 0; c < 8; ++c)
       if (!childTriangles[c].empty()) candidate.mask |= static_cast<std::uint8_t>(1u << c);
     if (candidate.mask != 0) {
@@ -494,6 +496,7 @@ class Refinement {
         child.triangles = std::move(childTriangles[c]);
         child.primitives = std::move(childErrors.primitives[c]);
         child.error = childErrors.errors[c];
+        child.keptChildren = keptChildrenOf(child);
         childError += child.error.ranked();
         candidate.largestChildError = std::max(candidate.largestChildError, child.error.ranked());
         candidate.children.push_back(std::move(child));
@@ -507,6 +510,12 @@ class Refinement {
     return candidate;
   }
 
+  int keptChildrenOf(const Leaf& leaf) const {
+    int kept = 0;
+    for (const auto& triangles : coarseInChildren(leaf)) kept += !triangles.empty();
+    return kept;
+  }
+
   LeafError errorOf(const Leaf& leaf) const {
     return errorInCell(detail_, leaf.primitives, leaf.cell, settings_.deferToCoarse, mayBeTwoSided(leaf.cell));
   }
@@ -517,6 +526,13 @@ class Refinement {
   }
 
  private:
+  // m's triangles in each child of the leaf's cell.
+  std::array<std::vector<std::uint32_t>, 8> coarseInChildren(const Leaf& leaf) const {
+    return distribute(
+        leaf.triangles, leaf.cell, [&](std::uint32_t t) { return coarseBounds(coarse_, t); },
+        [&](std::uint32_t t, const Cell& child) { return coarseOverlaps(coarse_, t, child); }, 0xFF);
+  }
+
   bool mayBeTwoSided(const Cell& cell) const {
     return settings_.twoSidedLeaves && cell.depth > settings_.completeDepth;
   }
@@ -787,6 +803,7 @@ class GlobalRefinement {
   void start(std::vector<Leaf> leaves) {
     tbb::parallel_for(std::size_t{0}, leaves.size(), [&](std::size_t i) {
       leaves[i].error = refinement_.errorOf(leaves[i]);
+      leaves[i].keptChildren = refinement_.keptChildrenOf(leaves[i]);
     });
     for (const Leaf& leaf : leaves) outcome_.texels += leaf.error.texels() - 1;
     for (Leaf& leaf : leaves) file(std::move(leaf));
@@ -870,13 +887,14 @@ class GlobalRefinement {
   void enqueue(Candidate candidate, bool evaluated) {
     const LeafError& error = candidate.leaf.error;
     // Unevaluated: a split is worth at most the leaf's one-normal L2,1 (its
-    // gain, or a child's error) and adds at least 2 texels (1 to a two-sided
-    // leaf), so that ratio bounds its key, and the first evaluated entry on
-    // top is the best split of all (the greedy order; rounds of many entries
-    // stay close to it). Tighter guesses (the parent's ratio) evaluated half
-    // as many leaves but lost 2-4% of the accuracy on bunny00.
-    const double key =
-        evaluated ? candidate.valuePerTexel() : error.variation / static_cast<double>(3 - error.texels());
+    // gain, or a child's error) and adds at least 1 texel per kept child and
+    // 1 for the node (none to a two-sided leaf), so that ratio bounds its
+    // key, and the first evaluated entry on top is the best split of all
+    // (the greedy order; rounds of many entries stay close to it). Guesses
+    // tighter than a bound (the parent's ratio) evaluated half as many
+    // leaves but lost 2-4% of the accuracy on bunny00.
+    const int texelsAtLeast = 2 - static_cast<int>(error.texels()) + std::max(1, candidate.leaf.keptChildren);
+    const double key = evaluated ? candidate.valuePerTexel() : error.variation / static_cast<double>(texelsAtLeast);
     queue_.push_back({evaluated, key, candidate.leaf.node, put(std::move(candidate))});
     std::push_heap(queue_.begin(), queue_.end(), QueueEntry::after);
   }
