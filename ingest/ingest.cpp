@@ -139,6 +139,23 @@ void triangulateOrganizedGrid(Scan& scan, const IngestOptions& options, IngestRe
                grid.sensor.z(), made.triangles, made.refused, grid.maxEdgeInSpacings);
 }
 
+// Scans of a sheet with no thickness, seen from both sides, made to face one
+// way (mesh_input.h, SheetAgreement): their points would cancel in M.
+void turnCoincidentSheets(Scan& scan, const mesh_input::SheetAgreement& sheets,
+                          IngestReport::MeshInputDecision& decision) {
+  decision.coincidentPairs = sheets.coincidentPairs;
+  decision.opposedPairs = sheets.opposedPairs;
+  decision.conflicts = sheets.conflicts;
+  decision.turnedPieces = sheets.turnedPieces;
+  decision.turnedPoints = sheets.turnedVertices;
+  for (std::size_t i = 0; i < sheets.turnVertex.size(); ++i)
+    if (sheets.turnVertex[i]) scan.points.normals[i] = -scan.points.normals[i];
+  if (sheets.turnedPieces > 0)
+    spdlog::warn("ingest: {} scans lie on other scans facing the opposite way (a sheet with no thickness seen from "
+                 "both sides): their {} points were turned to face one way",
+                 sheets.turnedPieces, sheets.turnedVertices);
+}
+
 // One surface, or overlapping range scans whose points become the scan
 // (with the normals of their faces, already turned outward).
 Status decideMeshInput(Scan& scan, const IngestOptions& options, IngestReport& report) {
@@ -158,6 +175,7 @@ Status decideMeshInput(Scan& scan, const IngestOptions& options, IngestReport& r
                  "another piece): read as a set of range scans, its points are reconstructed into M "
                  "(--mesh-input surface keeps it as M)",
                  evidence->pieces, 100.0 * evidence->overlapFraction, mesh_input::kOverlapEdgeLengths);
+    turnCoincidentSheets(scan, evidence->sheets, report.meshInput);
     scan.triangles.clear();
   }
   return okStatus();
@@ -380,7 +398,13 @@ std::string ingestReportJson(const IngestReport& report) {
                                                             {"pieces", mi.pieces},
                                                             {"boundary_edge_fraction", mi.boundaryEdgeFraction},
                                                             {"overlap_fraction", mi.overlapFraction},
-                                                            {"median_edge_length", mi.medianEdgeLength}};
+                                                            {"median_edge_length", mi.medianEdgeLength},
+                                                            {"coincident_sheets",
+                                                             {{"pairs", mi.coincidentPairs},
+                                                              {"opposed_pairs", mi.opposedPairs},
+                                                              {"conflicts", mi.conflicts},
+                                                              {"turned_pieces", mi.turnedPieces},
+                                                              {"turned_points", mi.turnedPoints}}}};
   const auto& g = report.gridMesh;
   json["grid_mesh"] = !g.made ? nlohmann::ordered_json(nullptr)
                               : nlohmann::ordered_json{{"width", g.width},

@@ -116,6 +116,8 @@ struct IngestReport {
     std::string requested, decision;  // "auto" / "surface" / "scans"; "surface" / "scans"
     std::uint64_t pieces = 0;
     double boundaryEdgeFraction = 0.0, overlapFraction = 0.0, medianEdgeLength = 0.0;
+    // Scans only: coincident sheets facing opposite ways turned to agree.
+    std::uint64_t coincidentPairs = 0, opposedPairs = 0, conflicts = 0, turnedPieces = 0, turnedPoints = 0;
   } meshInput;
   // Organised clouds: the grid triangulated from the sensor (docs/ingest.md).
   struct GridMesh {

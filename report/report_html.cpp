@@ -715,6 +715,11 @@ std::string ingestDecisionRows(const Json* ingest) {
                                                 count(numberAt(input, {"pieces"})),
                                                 overlap ? fmt::format("{:.0f}%", 100.0 * *overlap) : kNone));
   }
+  if (const Json* sheets = at(ingest, {"mesh_input", "coincident_sheets"});
+      sheets != nullptr && sheets->is_object() && numberAt(sheets, {"turned_pieces"}).value_or(0) > 0)
+    html += row("scans of a sheet seen from both sides, turned to face one way",
+                count(numberAt(sheets, {"turned_points"})) + " points in " + count(numberAt(sheets, {"turned_pieces"})) +
+                    " pieces");
   if (const Json* grid = at(ingest, {"grid_mesh"}); grid != nullptr && grid->is_object())
     html += row("organised cloud triangulated on its grid",
                 count(numberAt(grid, {"width"})) + " x " + count(numberAt(grid, {"height"})) + " pixels, " +

@@ -5,6 +5,7 @@
 #include "ingest/mesh_input.h"
 
 #include "adapters/embree/embree_ray_caster.h"
+#include "core/mesh_edit.h"
 #include "tests/test_support.h"
 
 #include <gtest/gtest.h>
@@ -141,6 +142,68 @@ TEST(MeshInput, ClosedPartsAndSheetsFacingApartStayASurface) {
   const auto together = mesh_input::judge(twoOverlappingSheets(20)).value();
   EXPECT_EQ(together.overlapFraction, 1.0);
   EXPECT_TRUE(together.looksLikeScans);
+}
+
+// An open shell of no thickness (a hemisphere) scanned from all round: the
+// views below see its inside, and each view's faces face its own scanner,
+// so scans of the inside lie on scans of the outside facing the other way
+// (lion-head.off's soup: Poisson on such points made a broken M, 40.9
+// degrees from its APO). Read as scans, every point faces one way.
+TEST(MeshInput, ScansOfASheetSeenFromBothSidesAreTurnedToFaceOneWay) {
+  const Scan sphere = test::makeIcosphere(5);
+  Scan shell;
+  shell.points = sphere.points;
+  for (const Triangle& t : sphere.triangles)
+    if (sphere.points.positions[t[0]].z() + sphere.points.positions[t[1]].z() + sphere.points.positions[t[2]].z() > 0.0f)
+      shell.triangles.push_back(t);
+  dropUnreferencedVertices(shell);
+  const auto caster = makeEmbreeMeshCaster(shell).value();
+  SimulateScanOptions options;
+  options.views = 8;
+  options.raysPerSide = 80;
+  options.asMesh = true;
+  const Scan soup = simulateScan(shell, *caster, options).value().scan;
+  // The test's premise: some of the soup's points face up (seen from
+  // outside), some down.
+  const auto facingUp = [](const Scan& scan) {
+    const std::vector<Vec3f> normals = scan.isMesh() ? areaWeightedVertexNormals(scan) : scan.points.normals;
+    std::size_t up = 0;
+    for (std::size_t i = 0; i < scan.points.size(); ++i) up += normals[i].dot(scan.points.positions[i]) > 0.0f;
+    return static_cast<double>(up) / static_cast<double>(scan.points.size());
+  };
+  const double before = facingUp(soup);
+  ASSERT_GT(before, 0.1);
+  ASSERT_LT(before, 0.9);
+
+  const IngestResult result = ingestAs(soup);
+  const auto& decision = result.report.meshInput;
+  ASSERT_EQ(decision.decision, "scans");
+  EXPECT_GT(decision.opposedPairs, 0u);
+  EXPECT_GT(decision.turnedPieces, 0u);
+  const double after = facingUp(result.scan);
+  EXPECT_TRUE(after > 0.99 || after < 0.01) << after << " of the points face outward";
+}
+
+// Two sheets a plate's thickness apart (two edge lengths, more than range
+// noise) facing apart are two sides, not one sheet: nothing is turned.
+TEST(MeshInput, TheTwoSidesOfAPlateAreNotOneSheet) {
+  Scan plate = twoOverlappingSheets(20);
+  for (std::size_t v = plate.points.size() / 2; v < plate.points.size(); ++v) plate.points.positions[v].z() = 2.0f;
+  for (std::size_t t = plate.triangles.size() / 2; t < plate.triangles.size(); ++t)
+    std::swap(plate.triangles[t][1], plate.triangles[t][0]);
+  const auto evidence = mesh_input::judge(plate).value();
+  EXPECT_EQ(evidence.sheets.coincidentPairs, 0u);
+  EXPECT_EQ(evidence.sheets.turnedVertices, 0u);
+  // The same sheets on each other (0.01 apart) are one sheet seen from both
+  // sides: one of the two is turned.
+  Scan sheet = twoOverlappingSheets(20);
+  for (std::size_t t = sheet.triangles.size() / 2; t < sheet.triangles.size(); ++t)
+    std::swap(sheet.triangles[t][1], sheet.triangles[t][0]);
+  const auto one = mesh_input::judge(sheet).value();
+  EXPECT_EQ(one.sheets.coincidentPairs, 1u);
+  EXPECT_EQ(one.sheets.opposedPairs, 1u);
+  EXPECT_EQ(one.sheets.turnedPieces, 1u);
+  EXPECT_EQ(one.sheets.turnedVertices, 400u);
 }
 
 TEST(MeshInput, TheDecisionCanBeForcedEitherWay) {
