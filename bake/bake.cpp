@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <optional>
 
 namespace apo {
 namespace {
@@ -91,6 +92,8 @@ octree::CoarseMesh coarseInUnitCube(const Scan& coarse, const UnitCubeTransform&
 struct Projection {
   std::vector<Vec3f> positions;
   std::vector<Vec3f> coarseNormals;  // m's interpolated normal there; zero where the line misses m
+  std::vector<char> met;             // whether the line met m
+  std::vector<std::uint32_t> onTriangle;  // the triangle of m it met
 };
 
 Vec3f coarseNormalAt(const Scan& coarse, const std::vector<Vec3f>& normals, const RayHit& hit) {
@@ -102,7 +105,8 @@ Vec3f coarseNormalAt(const Scan& coarse, const std::vector<Vec3f>& normals, cons
 
 Projection projectOntoCoarse(const std::vector<Vec3f>& centres, const std::vector<Vec3f>& normals,
                              const CoarseSurface& coarse, const std::vector<Vec3f>& coarseNormals, float reach) {
-  Projection projection{std::vector<Vec3f>(centres.size()), std::vector<Vec3f>(centres.size(), Vec3f::Zero())};
+  Projection projection{std::vector<Vec3f>(centres.size()), std::vector<Vec3f>(centres.size(), Vec3f::Zero()),
+                        std::vector<char>(centres.size(), 0), std::vector<std::uint32_t>(centres.size(), 0)};
   std::vector<Vec3f>& projected = projection.positions;
   constexpr std::size_t kChunk = 8192;
   tbb::parallel_for(std::size_t{0}, (centres.size() + kChunk - 1) / kChunk, [&](std::size_t chunk) {
@@ -129,9 +133,32 @@ Projection projectOntoCoarse(const std::vector<Vec3f>& centres, const std::vecto
       const RayHit& hit = useForward ? forward : backward;
       projected[i] = centres[i] + (useForward ? hit.t : -hit.t) * normals[i];
       projection.coarseNormals[i] = coarseNormalAt(*coarse.mesh, coarseNormals, hit);
+      projection.met[i] = 1;
+      projection.onTriangle[i] = hit.primitive;
     }
   });
   return projection;
+}
+
+// Where the line through a triangle's centre along its normal meets m, when
+// its three corners' lines met the same triangle of m: the plane of that
+// triangle, through the corners' projections, met inside it (the corners'
+// hits span it). None otherwise (a corner missed m, or met another
+// triangle: projecting the centre onto the plane through corners on two
+// triangles of m cost bunny00 1.6% of its accuracy), nor when the plane is
+// degenerate or nearly along the line: then a ray is cast.
+std::optional<Vec3f> alongNormalOntoCorners(const Vec3f& centre, const Vec3f& normal, const Projection& corners,
+                                            const Triangle& t) {
+  if (!corners.met[t[0]] || !corners.met[t[1]] || !corners.met[t[2]]) return std::nullopt;
+  if (corners.onTriangle[t[0]] != corners.onTriangle[t[1]] || corners.onTriangle[t[0]] != corners.onTriangle[t[2]])
+    return std::nullopt;
+  const Vec3f &q0 = corners.positions[t[0]], &q1 = corners.positions[t[1]], &q2 = corners.positions[t[2]];
+  const Vec3f planeNormal = (q1 - q0).cross(q2 - q0);
+  const float length = planeNormal.norm();
+  if (!(length > 0.0f)) return std::nullopt;
+  const float facing = normal.dot(planeNormal) / length;
+  if (std::abs(facing) < 0.5f) return std::nullopt;
+  return centre + ((q0 - centre).dot(planeNormal) / length / facing) * normal;
 }
 
 // M for the error metric (octree_build.h): in unit-cube coordinates, each
@@ -142,26 +169,39 @@ octree::DetailPrimitives detailForErrorMetric(const DetailSurface& surface, cons
   const Scan& M = *surface.detail;
   octree::DetailPrimitives detail;
   if (M.isMesh()) {
+    // M's vertices along their normals onto m: m's normals there (for the
+    // metric's comparison with m), and each triangle's shift, the mean of
+    // its corners' where all three met m. A triangle with a corner whose
+    // line missed m is projected from its centre along its own normal (a
+    // third of the rays: the torus of 7.2M triangles took 6.3 s of setup
+    // casting from every centre).
+    const Projection corners = projectOntoCoarse(M.points.positions, M.points.normals, coarse, coarseNormals, reach);
+    detail.coarseNormals = corners.coarseNormals;
     std::vector<Vec3f> centres, normals;
-    centres.reserve(M.triangles.size());
+    std::vector<std::size_t> fromCentre;
     double totalArea = 0.0;
-    for (const Triangle& t : M.triangles) {
+    detail.shifts.resize(M.triangles.size(), Vec3f::Zero());
+    for (std::size_t i = 0; i < M.triangles.size(); ++i) {
+      const Triangle& t = M.triangles[i];
       const Vec3f &a = M.points.positions[t[0]], &b = M.points.positions[t[1]], &c = M.points.positions[t[2]];
       const Vec3f areaNormal = 0.5f * (b - a).cross(c - a);
       const float area = areaNormal.norm();
       totalArea += area;
-      centres.push_back((a + b + c) / 3.0f);
-      normals.push_back(area > 0.0f ? Vec3f(areaNormal / area) : Vec3f(Vec3f::Zero()));
+      const Vec3f centre = (a + b + c) / 3.0f;
+      const Vec3f normal = area > 0.0f ? Vec3f(areaNormal / area) : Vec3f(Vec3f::Zero());
+      if (const auto projected = alongNormalOntoCorners(centre, normal, corners, t)) {
+        detail.shifts[i] = transform.toUnit(*projected) - transform.toUnit(centre);
+        continue;
+      }
+      fromCentre.push_back(i);
+      centres.push_back(centre);
+      normals.push_back(normal);
     }
     const std::vector<Vec3f> projected = projectOntoCoarse(centres, normals, coarse, coarseNormals, reach).positions;
-    // m's normals at M's vertices, for the metric's comparison with m.
-    detail.coarseNormals =
-        projectOntoCoarse(M.points.positions, M.points.normals, coarse, coarseNormals, reach).coarseNormals;
+    for (std::size_t k = 0; k < fromCentre.size(); ++k)
+      detail.shifts[fromCentre[k]] = transform.toUnit(projected[k]) - transform.toUnit(centres[k]);
     detail.triangles = M.triangles;
     for (const Vec3f& p : M.points.positions) detail.positions.push_back(transform.toUnit(p));
-    detail.shifts.reserve(M.triangles.size());
-    for (std::size_t i = 0; i < M.triangles.size(); ++i)
-      detail.shifts.push_back(transform.toUnit(projected[i]) - transform.toUnit(centres[i]));
     detail.cornerNormals = M.points.normals;
     const double meanUnitArea = totalArea / static_cast<double>(M.triangles.size()) * transform.scale * transform.scale;
     detail.areaScale = meanUnitArea > 0.0 ? 1.0 / meanUnitArea : 1.0;
