@@ -170,11 +170,10 @@ octree::DetailPrimitives detailForErrorMetric(const DetailSurface& surface, cons
   octree::DetailPrimitives detail;
   if (M.isMesh()) {
     // M's vertices along their normals onto m: m's normals there (for the
-    // metric's comparison with m), and each triangle's shift, the mean of
-    // its corners' where all three met m. A triangle with a corner whose
-    // line missed m is projected from its centre along its own normal (a
-    // third of the rays: the torus of 7.2M triangles took 6.3 s of setup
-    // casting from every centre).
+    // metric's comparison with m), and each triangle's shift wherever its
+    // three corners met one triangle of m (alongNormalOntoCorners). Only the
+    // other triangles cast rays from their centres (casting from every
+    // centre took 6.3 s of the 7.2M-triangle torus's setup).
     const Projection corners = projectOntoCoarse(M.points.positions, M.points.normals, coarse, coarseNormals, reach);
     detail.coarseNormals = corners.coarseNormals;
     std::vector<Vec3f> centres, normals;

@@ -496,7 +496,7 @@ class Refinement {
         child.triangles = std::move(childTriangles[c]);
         child.primitives = std::move(childErrors.primitives[c]);
         child.error = childErrors.errors[c];
-        child.keptChildren = keptChildrenOf(child);
+        if (mayRefine(child)) child.keptChildren = keptChildrenOf(child);  // only a leaf that may split is queued
         childError += child.error.ranked();
         candidate.largestChildError = std::max(candidate.largestChildError, child.error.ranked());
         candidate.children.push_back(std::move(child));
@@ -803,7 +803,7 @@ class GlobalRefinement {
   void start(std::vector<Leaf> leaves) {
     tbb::parallel_for(std::size_t{0}, leaves.size(), [&](std::size_t i) {
       leaves[i].error = refinement_.errorOf(leaves[i]);
-      leaves[i].keptChildren = refinement_.keptChildrenOf(leaves[i]);
+      if (refinement_.mayRefine(leaves[i])) leaves[i].keptChildren = refinement_.keptChildrenOf(leaves[i]);
     });
     for (const Leaf& leaf : leaves) outcome_.texels += leaf.error.texels() - 1;
     for (Leaf& leaf : leaves) file(std::move(leaf));
