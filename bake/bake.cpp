@@ -175,11 +175,10 @@ octree::DetailPrimitives detailForErrorMetric(const DetailSurface& surface, cons
     // other triangles cast rays from their centres (casting from every
     // centre took 6.3 s of the 7.2M-triangle torus's setup).
     const Projection corners = projectOntoCoarse(M.points.positions, M.points.normals, coarse, coarseNormals, reach);
-    detail.coarseNormals = corners.coarseNormals;
     std::vector<Vec3f> centres, normals;
     std::vector<std::size_t> fromCentre;
     double totalArea = 0.0;
-    detail.shifts.resize(M.triangles.size(), Vec3f::Zero());
+    std::vector<Vec3f> shifts(M.triangles.size(), Vec3f::Zero());
     for (std::size_t i = 0; i < M.triangles.size(); ++i) {
       const Triangle& t = M.triangles[i];
       const Vec3f &a = M.points.positions[t[0]], &b = M.points.positions[t[1]], &c = M.points.positions[t[2]];
@@ -189,7 +188,7 @@ octree::DetailPrimitives detailForErrorMetric(const DetailSurface& surface, cons
       const Vec3f centre = (a + b + c) / 3.0f;
       const Vec3f normal = area > 0.0f ? Vec3f(areaNormal / area) : Vec3f(Vec3f::Zero());
       if (const auto projected = alongNormalOntoCorners(centre, normal, corners, t)) {
-        detail.shifts[i] = transform.toUnit(*projected) - transform.toUnit(centre);
+        shifts[i] = transform.toUnit(*projected) - transform.toUnit(centre);
         continue;
       }
       fromCentre.push_back(i);
@@ -198,19 +197,20 @@ octree::DetailPrimitives detailForErrorMetric(const DetailSurface& surface, cons
     }
     const std::vector<Vec3f> projected = projectOntoCoarse(centres, normals, coarse, coarseNormals, reach).positions;
     for (std::size_t k = 0; k < fromCentre.size(); ++k)
-      detail.shifts[fromCentre[k]] = transform.toUnit(projected[k]) - transform.toUnit(centres[k]);
-    detail.triangles = M.triangles;
-    for (const Vec3f& p : M.points.positions) detail.positions.push_back(transform.toUnit(p));
-    detail.cornerNormals = M.points.normals;
+      shifts[fromCentre[k]] = transform.toUnit(projected[k]) - transform.toUnit(centres[k]);
+    std::vector<Vec3f> positions;
+    positions.reserve(M.points.size());
+    for (const Vec3f& p : M.points.positions) positions.push_back(transform.toUnit(p));
     const double meanUnitArea = totalArea / static_cast<double>(M.triangles.size()) * transform.scale * transform.scale;
-    detail.areaScale = meanUnitArea > 0.0 ? 1.0 / meanUnitArea : 1.0;
-    return detail;
+    return octree::DetailPrimitives::ofMesh(positions, M.triangles, M.points.normals,
+                                            meanUnitArea > 0.0 ? 1.0 / meanUnitArea : 1.0, shifts, corners.coarseNormals);
   }
   detail.normals = M.points.normals;
   detail.weights = surface.pointAreas.empty() ? std::vector<float>(M.points.size(), 1.0f) : surface.pointAreas;
   Projection projection = projectOntoCoarse(M.points.positions, detail.normals, coarse, coarseNormals, reach);
   for (const Vec3f& p : projection.positions) detail.positions.push_back(transform.toUnit(p));
   detail.coarseNormals = std::move(projection.coarseNormals);
+  detail.coarseKnown = true;
   const double total = std::accumulate(detail.weights.begin(), detail.weights.end(), 0.0);
   const double mean = total / static_cast<double>(std::max<std::size_t>(1, detail.weights.size()));
   if (mean > 0.0)

@@ -30,45 +30,102 @@ bool separatedOn(const Vec3f& axis, const Vec3f& v0, const Vec3f& v1, const Vec3
   return std::min({p0, p1, p2}) > radius || std::max({p0, p1, p2}) < -radius;
 }
 
-// A convex polygon cut from a triangle by a box: each of the six planes adds
-// at most one corner, so 9 at most. Fixed storage: the error metric clips
-// millions of triangles and would otherwise spend its time allocating.
-struct ClippedPolygon {
-  std::array<Vec3f, 9> corners;
+// A triangle abc in its own coordinates: p(u, v) = a + u (b - a) + v (c - a).
+// The part of it inside a box is a convex polygon of that (u, v) plane, cut
+// from the unit triangle by the box's faces: each face adds at most one
+// corner, so 9 at most. Fixed storage: the error metric clips millions of
+// triangles and would otherwise spend its time allocating.
+struct ParameterPolygon {
+  std::array<Eigen::Vector2d, 9> corners;
   int size = 0;
 };
 
-// Keeps the part of `polygon` where sign * (p[axis] - bound) <= 0.
-void clipAgainstPlane(const ClippedPolygon& polygon, int axis, float bound, float sign, ClippedPolygon& clipped) {
-  clipped.size = 0;
+// Keeps the part of `polygon` where offset + u alongU + v alongV <= 0.
+void clipAgainstLine(const ParameterPolygon& polygon, double offset, double alongU, double alongV,
+                     ParameterPolygon& clipped) {
+  std::array<double, 9> side;
   const int n = polygon.size;
+  for (int i = 0; i < n; ++i) side[i] = offset + polygon.corners[i].x() * alongU + polygon.corners[i].y() * alongV;
+  clipped.size = 0;
   for (int i = 0; i < n; ++i) {
-    const Vec3f& p = polygon.corners[i];
-    const Vec3f& q = polygon.corners[(i + 1) % n];
-    const float dp = sign * (p[axis] - bound), dq = sign * (q[axis] - bound);
-    if (dp <= 0.0f) clipped.corners[clipped.size++] = p;
-    if ((dp < 0.0f && dq > 0.0f) || (dp > 0.0f && dq < 0.0f)) {
-      Vec3f crossing = p + (q - p) * (dp / (dp - dq));
-      crossing[axis] = bound;  // exactly on the face, whatever the rounding
-      clipped.corners[clipped.size++] = crossing;
-    }
+    const int next = i + 1 == n ? 0 : i + 1;
+    const double dp = side[i], dq = side[next];
+    if (dp <= 0.0) clipped.corners[clipped.size++] = polygon.corners[i];
+    if ((dp < 0.0 && dq > 0.0) || (dp > 0.0 && dq < 0.0))
+      clipped.corners[clipped.size++] = polygon.corners[i] + (polygon.corners[next] - polygon.corners[i]) * (dp / (dp - dq));
   }
 }
 
-ClippedPolygon clipToCell(const Vec3f& a, const Vec3f& b, const Vec3f& c, const Cell& cell) {
-  ClippedPolygon polygon, scratch;
-  polygon.corners[0] = a;
-  polygon.corners[1] = b;
-  polygon.corners[2] = c;
-  polygon.size = 3;
+// The part of triangle abc inside the cell, in abc's (u, v) coordinates.
+// Only the faces the triangle crosses cut: most triangles filed into a child
+// cross one or two of its six faces.
+ParameterPolygon clipInParameters(const Vec3f& a, const Vec3f& b, const Vec3f& c, const Cell& cell) {
+  std::array<ParameterPolygon, 2> buffers;
+  ParameterPolygon* polygon = &buffers[0];
+  ParameterPolygon* scratch = &buffers[1];
+  polygon->corners = {Eigen::Vector2d(0.0, 0.0), Eigen::Vector2d(1.0, 0.0), Eigen::Vector2d(0.0, 1.0)};
+  polygon->size = 3;
   const Vec3f lower = cell.lower(), upper = cell.upper();
-  for (int axis = 0; axis < 3 && polygon.size > 0; ++axis) {
-    clipAgainstPlane(polygon, axis, upper[axis], 1.0f, scratch);
-    if (scratch.size > 0) clipAgainstPlane(scratch, axis, lower[axis], -1.0f, polygon);
-    else polygon.size = 0;
+  const Vec3f lo = a.cwiseMin(b).cwiseMin(c), hi = a.cwiseMax(b).cwiseMax(c);
+  const Eigen::Vector3d origin = a.cast<double>(), alongU = (b - a).cast<double>(), alongV = (c - a).cast<double>();
+  // Keeps sign * (p[axis] - bound) <= 0.
+  const auto clip = [&](int axis, float bound, double sign) {
+    clipAgainstLine(*polygon, sign * (origin[axis] - bound), sign * alongU[axis], sign * alongV[axis], *scratch);
+    std::swap(polygon, scratch);
+  };
+  for (int axis = 0; axis < 3 && polygon->size > 0; ++axis) {
+    if (hi[axis] > upper[axis]) clip(axis, upper[axis], 1.0);
+    if (lo[axis] < lower[axis] && polygon->size > 0) clip(axis, lower[axis], -1.0);
   }
-  return polygon;
+  return *polygon;
 }
+
+// The integrals of 1, u, v, u^2, uv and v^2 over a region of the (u, v)
+// plane.
+struct ParameterMoments {
+  double area = 0.0, u = 0.0, v = 0.0, uu = 0.0, uv = 0.0, vv = 0.0;
+};
+
+// The unit triangle's: the whole of abc.
+constexpr ParameterMoments kWholeTriangle{1.0 / 2.0, 1.0 / 6.0, 1.0 / 6.0, 1.0 / 12.0, 1.0 / 24.0, 1.0 / 12.0};
+
+// A polygon's moments by Green's theorem, edge by edge (counter-clockwise,
+// as the unit triangle and every part clipped from it).
+ParameterMoments momentsOf(const ParameterPolygon& polygon) {
+  ParameterMoments m;
+  for (int i = 0; i < polygon.size; ++i) {
+    const Eigen::Vector2d& p = polygon.corners[i];
+    const Eigen::Vector2d& q = polygon.corners[i + 1 == polygon.size ? 0 : i + 1];
+    const double cross = p.x() * q.y() - q.x() * p.y();
+    m.area += cross;
+    m.u += (p.x() + q.x()) * cross;
+    m.v += (p.y() + q.y()) * cross;
+    m.uu += (p.x() * p.x() + p.x() * q.x() + q.x() * q.x()) * cross;
+    m.vv += (p.y() * p.y() + p.y() * q.y() + q.y() * q.y()) * cross;
+    m.uv += (2.0 * p.x() * p.y() + p.x() * q.y() + q.x() * p.y() + 2.0 * q.x() * q.y()) * cross;
+  }
+  return {m.area / 2.0, m.u / 6.0, m.v / 6.0, m.uu / 12.0, m.uv / 24.0, m.vv / 12.0};
+}
+
+// A field linear on a triangle, from its corner values: f(u, v) = f0 + u
+// (f1 - f0) + v (f2 - f0). Its integrals over a part of the triangle follow
+// from the part's moments.
+struct LinearField {
+  Eigen::Vector3d at0, alongU, alongV;
+
+  static LinearField through(const Vec3f& f0, const Vec3f& f1, const Vec3f& f2) {
+    const Eigen::Vector3d first = f0.cast<double>();
+    return {first, f1.cast<double>() - first, f2.cast<double>() - first};
+  }
+  LinearField operator-(const LinearField& other) const {
+    return {at0 - other.at0, alongU - other.alongU, alongV - other.alongV};
+  }
+  Eigen::Vector3d integral(const ParameterMoments& m) const { return at0 * m.area + alongU * m.u + alongV * m.v; }
+  double squaredIntegral(const ParameterMoments& m) const {
+    return at0.squaredNorm() * m.area + 2.0 * at0.dot(alongU) * m.u + 2.0 * at0.dot(alongV) * m.v +
+           alongU.squaredNorm() * m.uu + 2.0 * alongU.dot(alongV) * m.uv + alongV.squaredNorm() * m.vv;
+  }
+};
 
 // ---- Primitive access -----------------------------------------------------
 
@@ -92,14 +149,14 @@ bool coarseOverlaps(const CoarseMesh& m, std::uint32_t t, const Cell& cell) {
 
 Bounds detailBounds(const DetailPrimitives& d, std::uint32_t i) {
   if (d.triangles.empty()) return {d.positions[i], d.positions[i]};
-  const auto c = d.corners(i);
+  const auto& c = d.triangles[i].corners;
   return triangleBounds(c[0], c[1], c[2]);
 }
 
 bool detailOverlaps(const DetailPrimitives& d, std::uint32_t i, const Cell& cell) {
   if (d.triangles.empty())
     return (d.positions[i].array() >= cell.lower().array()).all() && (d.positions[i].array() <= cell.upper().array()).all();
-  const auto c = d.corners(i);
+  const auto& c = d.triangles[i].corners;
   return triangleOverlapsBox(c[0], c[1], c[2], cell);
 }
 
@@ -107,37 +164,27 @@ bool boundsInsideCell(const Bounds& b, const Cell& cell) {
   return (b.lo.array() >= cell.lower().array()).all() && (b.hi.array() <= cell.upper().array()).all();
 }
 
-// The integral of |f|^2 over a triangle of area a where f is linear with
-// corner values f0, f1, f2: a (|mean|^2 + a twelfth of the corners' squared
-// deviations from their mean).
-double squaredIntegral(double a, const Eigen::Vector3d& f0, const Eigen::Vector3d& f1, const Eigen::Vector3d& f2) {
-  const Eigen::Vector3d mean = (f0 + f1 + f2) / 3.0;
-  return a * (mean.squaredNorm() + ((f0 - mean).squaredNorm() + (f1 - mean).squaredNorm() + (f2 - mean).squaredNorm()) / 12.0);
-}
-
-// Running sums for the L2,1 integral: over pieces of area a with mean normal
-// mu and internal variance v, sum a |mu - n|^2 + a v expands into these.
+// Running sums for the L2,1 integral of a cell: M's area, the integral of
+// its normal field n and of |n|^2; with n_C the unit mean normal, the
+// integral of |n - n_C|^2 expands into these.
 struct Moments {
-  double area = 0.0, areaMeanSquared = 0.0, areaVariance = 0.0;
-  Eigen::Vector3d areaMean = Eigen::Vector3d::Zero();
+  double area = 0.0, squared = 0.0;
+  Eigen::Vector3d integral = Eigen::Vector3d::Zero();
 
-  void add(double a, const Eigen::Vector3d& mean, double variance) {
+  void add(double a, const Eigen::Vector3d& integralOfN, double integralOfSquare) {
     area += a;
-    areaMean += a * mean;
-    areaMeanSquared += a * mean.squaredNorm();
-    areaVariance += a * variance;
+    integral += integralOfN;
+    squared += integralOfSquare;
   }
 
   Moments operator-(const Moments& other) const {
-    return {area - other.area, areaMeanSquared - other.areaMeanSquared, areaVariance - other.areaVariance,
-            areaMean - other.areaMean};
+    return {area - other.area, squared - other.squared, integral - other.integral};
   }
 
   double l21() const {
-    const double norm = areaMean.norm();
-    const double alongMean = norm > 0.0 ? norm : 0.0;  // n . sum(a mu) with n the unit mean
-    const double unitArea = norm > 0.0 ? area : 0.0;   // |n|^2 sum(a)
-    return std::max(0.0, areaMeanSquared - 2.0 * alongMean + unitArea + areaVariance);
+    const double norm = integral.norm();
+    const double unitArea = norm > 0.0 ? area : 0.0;  // |n_C|^2 times the area
+    return std::max(0.0, squared - 2.0 * norm + unitArea);
   }
 };
 
@@ -150,30 +197,29 @@ struct VariationSums {
   std::array<Moments, 3> sideZero;
   double coarse = 0.0;
 
-  // A piece of M whose m normal (mean over the piece) is `coarseMean`, null
-  // when unknown.
-  void add(double a, const Eigen::Vector3d& mean, double variance, const Eigen::Vector3d* coarseMean) {
-    all.add(a, mean, variance);
+  // A piece of M; `coarseMean` points along m's mean normal over it, null
+  // when that is unknown.
+  void add(double a, const Eigen::Vector3d& integralOfN, double integralOfSquare, const Eigen::Vector3d* coarseMean) {
+    all.add(a, integralOfN, integralOfSquare);
     if (!coarseMean) return;
     for (int axis = 0; axis < 3; ++axis)
-      if (leafSide(coarseMean->cast<float>(), axis) == 0) sideZero[axis].add(a, mean, variance);
+      if (leafSide(coarseMean->cast<float>(), axis) == 0) sideZero[axis].add(a, integralOfN, integralOfSquare);
   }
 
-  // A linearly interpolated field over a triangle: its mean is the corners'
-  // mean and its variance a twelfth of the corners' squared deviations; m's
-  // field `r` (null when unknown) is linear too.
-  void addTriangle(double a, const Vec3f& n0, const Vec3f& n1, const Vec3f& n2, const std::array<Vec3f, 3>* r) {
-    const Eigen::Vector3d m0 = n0.cast<double>(), m1 = n1.cast<double>(), m2 = n2.cast<double>();
-    const Eigen::Vector3d mean = (m0 + m1 + m2) / 3.0;
-    const double variance = ((m0 - mean).squaredNorm() + (m1 - mean).squaredNorm() + (m2 - mean).squaredNorm()) / 12.0;
+  // The part of a triangle of M whose (u, v) moments are `m`, `jacobian` its
+  // area over the unit triangle's; n M's interpolated normals, r m's (null
+  // when unknown), both linear on the triangle.
+  void addPart(double jacobian, const ParameterMoments& m, const LinearField& n, const LinearField* r) {
+    const double a = jacobian * m.area;
+    const Eigen::Vector3d integralOfN = jacobian * n.integral(m);
+    const double integralOfSquare = jacobian * n.squaredIntegral(m);
     if (!r) {
-      add(a, mean, variance, nullptr);
+      add(a, integralOfN, integralOfSquare, nullptr);
       return;
     }
-    const Eigen::Vector3d r0 = (*r)[0].cast<double>(), r1 = (*r)[1].cast<double>(), r2 = (*r)[2].cast<double>();
-    const Eigen::Vector3d coarseMean = (r0 + r1 + r2) / 3.0;
-    add(a, mean, variance, &coarseMean);
-    coarse += squaredIntegral(a, m0 - r0, m1 - r1, m2 - r2);
+    const Eigen::Vector3d coarseMean = r->integral(m);
+    add(a, integralOfN, integralOfSquare, &coarseMean);
+    coarse += jacobian * (n - *r).squaredIntegral(m);
   }
 
   double l21() const { return all.l21(); }
@@ -190,38 +236,29 @@ struct VariationSums {
   }
 };
 
-double triangleArea(const Vec3f& a, const Vec3f& b, const Vec3f& c) {
-  return 0.5 * (b - a).cast<double>().cross((c - a).cast<double>()).norm();
-}
-
-// The part of triangle t of M (its corners `c`, their bounds `bounds`)
-// inside the cell, added piece by piece with its interpolated normals;
-// false when that part has no area (the triangle misses the cell or only
-// touches it), so that the clip is also the overlap test.
-bool addTriangleInCell(const DetailPrimitives& d, std::uint32_t t, const std::array<Vec3f, 3>& c,
-                       const Bounds& bounds, const Cell& cell, VariationSums& sums) {
-  const Triangle& tri = d.triangles[t];
-  const Vec3f &n0 = d.cornerNormals[tri[0]], &n1 = d.cornerNormals[tri[1]], &n2 = d.cornerNormals[tri[2]];
-  const bool withCoarse = !d.coarseNormals.empty();
-  std::array<Vec3f, 3> r{};
-  if (withCoarse) r = {d.coarseNormals[tri[0]], d.coarseNormals[tri[1]], d.coarseNormals[tri[2]]};
-  if (boundsInsideCell(bounds, cell)) {
-    sums.addTriangle(d.areaScale * triangleArea(c[0], c[1], c[2]), n0, n1, n2, withCoarse ? &r : nullptr);
+// The part of triangle t of M (`bounds` its corners' bounds) inside the
+// cell, added with its interpolated normals; false when that part is empty
+// (the triangle misses the cell or only touches it), so that the clip is
+// also the overlap test. The part's integrals come from its moments in the
+// triangle's own coordinates, exactly for the linear fields.
+bool addTriangleInCell(const DetailPrimitives& d, const DetailTriangle& t, const Bounds& bounds, const Cell& cell,
+                       VariationSums& sums) {
+  const auto& c = t.corners;
+  ParameterMoments moments = kWholeTriangle;
+  if (!boundsInsideCell(bounds, cell)) {
+    const ParameterPolygon part = clipInParameters(c[0], c[1], c[2], cell);
+    if (part.size < 3) return false;
+    moments = momentsOf(part);
+  }
+  const LinearField n = LinearField::through(t.normals[0], t.normals[1], t.normals[2]);
+  // Twice the triangle's area: the unit triangle's is a half.
+  const double jacobian = d.areaScale * (c[1] - c[0]).cast<double>().cross((c[2] - c[0]).cast<double>()).norm();
+  if (!d.coarseKnown) {
+    sums.addPart(jacobian, moments, n, nullptr);
     return true;
   }
-  const ClippedPolygon piece = clipToCell(c[0], c[1], c[2], cell);
-  if (piece.size < 3) return false;
-  std::array<Vec3f, 9> normals, coarse;
-  for (int k = 0; k < piece.size; ++k) {
-    const Eigen::Vector3f w = barycentricsOf(piece.corners[k], c[0], c[1], c[2]);
-    normals[k] = w[0] * n0 + w[1] * n1 + w[2] * n2;
-    if (withCoarse) coarse[k] = w[0] * r[0] + w[1] * r[1] + w[2] * r[2];
-  }
-  for (int k = 1; k + 1 < piece.size; ++k) {
-    const std::array<Vec3f, 3> pieceCoarse = {coarse[0], coarse[k], coarse[k + 1]};
-    sums.addTriangle(d.areaScale * triangleArea(piece.corners[0], piece.corners[k], piece.corners[k + 1]), normals[0],
-                     normals[k], normals[k + 1], withCoarse ? &pieceCoarse : nullptr);
-  }
+  const LinearField r = LinearField::through(t.coarseNormals[0], t.coarseNormals[1], t.coarseNormals[2]);
+  sums.addPart(jacobian, moments, n, &r);
   return true;
 }
 
@@ -288,15 +325,17 @@ LeafError leafErrorOf(const VariationSums& sums, bool withCoarse, bool deferToCo
 LeafError errorInCell(const DetailPrimitives& detail, const std::vector<std::uint32_t>& primitives, const Cell& cell,
                       bool deferToCoarse, bool twoSides) {
   VariationSums sums;
-  const bool withCoarse = !detail.coarseNormals.empty();
+  const bool withCoarse = detail.coarseKnown;
   for (const std::uint32_t i : primitives) {
     if (detail.triangles.empty()) {
+      const double w = detail.weights[i];
+      const Eigen::Vector3d normal = detail.normals[i].cast<double>();
       const Eigen::Vector3d coarse = withCoarse ? Eigen::Vector3d(detail.coarseNormals[i].cast<double>()) : Eigen::Vector3d::Zero();
-      sums.add(detail.weights[i], detail.normals[i].cast<double>(), 0.0, withCoarse ? &coarse : nullptr);
-      if (withCoarse) sums.coarse += detail.weights[i] * (detail.normals[i].cast<double>() - coarse).squaredNorm();
+      sums.add(w, w * normal, w * normal.squaredNorm(), withCoarse ? &coarse : nullptr);
+      if (withCoarse) sums.coarse += w * (normal - coarse).squaredNorm();
     } else {
-      const auto c = detail.corners(i);
-      addTriangleInCell(detail, i, c, triangleBounds(c[0], c[1], c[2]), cell, sums);
+      const DetailTriangle& t = detail.triangles[i];
+      addTriangleInCell(detail, t, triangleBounds(t.corners[0], t.corners[1], t.corners[2]), cell, sums);
     }
   }
   return leafErrorOf(sums, withCoarse, deferToCoarse, twoSides);
@@ -566,14 +605,15 @@ class Refinement {
     std::array<VariationSums, 8> sums;
     const Cell& cell = leaf.cell;
     for (const std::uint32_t t : leaf.primitives) {
-      const auto corners = detail_.corners(t);
+      const DetailTriangle& triangle = detail_.triangles[t];
+      const auto& corners = triangle.corners;
       const Bounds bounds = triangleBounds(corners[0], corners[1], corners[2]);
       forChildrenTouching(cell, bounds, [&](int c) {
-        if ((mask & (1u << c)) && addTriangleInCell(detail_, t, corners, bounds, cell.child(c), sums[c]))
+        if ((mask & (1u << c)) && addTriangleInCell(detail_, triangle, bounds, cell.child(c), sums[c]))
           out.primitives[c].push_back(t);
       });
     }
-    const bool withCoarse = !detail_.coarseNormals.empty();
+    const bool withCoarse = detail_.coarseKnown;
     for (int c = 0; c < 8; ++c)
       if (mask & (1u << c))
         out.errors[c] = leafErrorOf(sums[c], withCoarse, settings_.deferToCoarse, mayBeTwoSided(cell.child(c)));
@@ -703,8 +743,12 @@ bool triangleOverlapsBox(const Vec3f& a, const Vec3f& b, const Vec3f& c, const C
 }
 
 std::vector<Vec3f> clipTriangleToCell(const Vec3f& a, const Vec3f& b, const Vec3f& c, const Cell& cell) {
-  const ClippedPolygon polygon = clipToCell(a, b, c, cell);
-  return {polygon.corners.begin(), polygon.corners.begin() + polygon.size};
+  const ParameterPolygon part = clipInParameters(a, b, c, cell);
+  const Eigen::Vector3d origin = a.cast<double>(), alongU = (b - a).cast<double>(), alongV = (c - a).cast<double>();
+  std::vector<Vec3f> corners;
+  for (int k = 0; k < part.size; ++k)
+    corners.push_back((origin + part.corners[k].x() * alongU + part.corners[k].y() * alongV).cast<float>());
+  return corners;
 }
 
 double polygonArea(const std::vector<Vec3f>& polygon) {
@@ -727,6 +771,26 @@ Eigen::Vector3f barycentricsOf(const Vec3f& p, const Vec3f& a, const Vec3f& b, c
 
 double normalVariation(const DetailPrimitives& detail, const std::vector<std::uint32_t>& primitives, const Cell& cell) {
   return errorInCell(detail, primitives, cell, false, false).variation;
+}
+
+DetailPrimitives DetailPrimitives::ofMesh(const std::vector<Vec3f>& positions, const std::vector<Triangle>& triangles,
+                                          const std::vector<Vec3f>& cornerNormals, double areaScale,
+                                          const std::vector<Vec3f>& shifts, const std::vector<Vec3f>& coarseNormals) {
+  DetailPrimitives detail;
+  detail.areaScale = areaScale;
+  detail.coarseKnown = !coarseNormals.empty();
+  detail.triangles.resize(triangles.size());
+  tbb::parallel_for(std::size_t{0}, triangles.size(), [&](std::size_t i) {
+    DetailTriangle& t = detail.triangles[i];
+    const Vec3f shift = shifts.empty() ? Vec3f(Vec3f::Zero()) : shifts[i];
+    for (int k = 0; k < 3; ++k) {
+      const std::uint32_t v = triangles[i][k];
+      t.corners[k] = positions[v] + shift;
+      t.normals[k] = cornerNormals[v];
+      t.coarseNormals[k] = detail.coarseKnown ? coarseNormals[v] : Vec3f(Vec3f::Zero());
+    }
+  });
+  return detail;
 }
 
 double RefinementOutcome::rmsDegrees() const {

@@ -31,33 +31,40 @@ bool triangleOverlapsBox(const Vec3f& a, const Vec3f& b, const Vec3f& c, const C
 std::vector<Vec3f> clipTriangleToCell(const Vec3f& a, const Vec3f& b, const Vec3f& c, const Cell& cell);
 double polygonArea(const std::vector<Vec3f>& polygon);
 
+// A triangle of M as the L2,1 metric reads it, in one record: the build
+// reads every triangle once per level it descends, and corners, normals and
+// m's normals gathered from four arrays cost a cache miss each.
+struct DetailTriangle {
+  std::array<Vec3f, 3> corners;        // unit-cube coordinates, moved onto m
+  std::array<Vec3f, 3> normals;        // M's normals at the corners
+  std::array<Vec3f, 3> coarseNormals;  // m's normals where the corners project (DetailPrimitives::coarseKnown)
+};
+
 // M as the L2,1 metric sees it, in unit-cube coordinates and moved onto m.
-// Triangles (when `triangles` is not empty) carry the interpolated normal
-// field of M: corner normals per vertex, each triangle shifted by `shifts`
-// (its centre's projection onto m); the metric integrates over the part of
-// each triangle inside a cell, in units of M's mean triangle area
-// (`areaScale` = 1 / that area). Points carry one normal and a weight each
-// (their area over the mean area) and sit where they project onto m.
+// Triangles carry the interpolated normal field of M; the metric integrates
+// over the part of each triangle inside a cell, in units of M's mean
+// triangle area (`areaScale` = 1 / that area). Points carry one normal and a
+// weight each (their area over the mean area) and sit where they project
+// onto m. With `coarseKnown`, each also carries m's interpolated normal
+// where it projects onto m along its normal (zero where that line misses
+// m): the metric integrates M's field against m's over each piece (both
+// linear on a triangle), so a cell knows how far m alone is.
 struct DetailPrimitives {
-  std::vector<Vec3f> positions;
-  std::vector<Triangle> triangles;
-  std::vector<Vec3f> shifts;         // per triangle
-  std::vector<Vec3f> cornerNormals;  // per position, for triangles
-  double areaScale = 1.0;            // triangles
-  std::vector<Vec3f> normals;        // per point
-  std::vector<float> weights;        // per point
-  // Per position (M's vertex or point): m's interpolated normal where it
-  // projects onto m along its normal (zero where that line misses m); empty
-  // when not known. The metric integrates M's field against m's over each
-  // piece (both linear on a triangle), so a cell knows how far m alone is.
-  std::vector<Vec3f> coarseNormals;
+  std::vector<DetailTriangle> triangles;
+  double areaScale = 1.0;      // triangles
+  std::vector<Vec3f> positions;  // points
+  std::vector<Vec3f> normals;    // per point
+  std::vector<float> weights;    // per point
+  std::vector<Vec3f> coarseNormals;  // per point
+  bool coarseKnown = false;
+
+  // M as a mesh: per position its normal and (when not empty) m's; per
+  // triangle (when not empty) the shift that moves it onto m.
+  static DetailPrimitives ofMesh(const std::vector<Vec3f>& positions, const std::vector<Triangle>& triangles,
+                                 const std::vector<Vec3f>& cornerNormals, double areaScale,
+                                 const std::vector<Vec3f>& shifts = {}, const std::vector<Vec3f>& coarseNormals = {});
 
   std::size_t size() const { return triangles.empty() ? positions.size() : triangles.size(); }
-  std::array<Vec3f, 3> corners(std::uint32_t t) const {
-    const Triangle& tri = triangles[t];
-    const Vec3f shift = shifts.empty() ? Vec3f(Vec3f::Zero()) : shifts[t];
-    return {positions[tri[0]] + shift, positions[tri[1]] + shift, positions[tri[2]] + shift};
-  }
 };
 
 // Barycentric weights of p (on or near triangle abc) in abc, clamped to the
@@ -85,7 +92,7 @@ struct BuildSettings {
   bool deferToCoarse = false;
   // Leaves below the completion depth may show one normal per side of m
   // (OctreeNode::twoSided) where that leaves far less error; needs m's
-  // normals (DetailPrimitives::coarseNormals).
+  // normals (DetailPrimitives::coarseKnown).
   bool twoSidedLeaves = false;
 };
 

@@ -101,11 +101,9 @@ TEST(NormalVariation, IntegratesTheInterpolatedFieldOverTheTrianglePartInTheCell
   // One right triangle of legs 1 in z = 0.5, corner normals (1,0,0) at the
   // right angle and (0,0,1) at the other two: n(x, y) = (1 - u - v, 0, u + v)
   // in barycentrics. Ground truth by dense midpoint integration.
-  DetailPrimitives detail;
-  detail.positions = {{0.0f, 0.0f, 0.5f}, {1.0f, 0.0f, 0.5f}, {0.0f, 1.0f, 0.5f}};
-  detail.triangles = {{0, 1, 2}};
-  detail.cornerNormals = {{1, 0, 0}, {0, 0, 1}, {0, 0, 1}};
-  detail.areaScale = 2.0;  // weights in units of the triangle's own area (0.5)
+  // areaScale 2: weights in units of the triangle's own area (0.5).
+  const DetailPrimitives detail = DetailPrimitives::ofMesh({{0.0f, 0.0f, 0.5f}, {1.0f, 0.0f, 0.5f}, {0.0f, 1.0f, 0.5f}},
+                                                           {{0, 1, 2}}, {{1, 0, 0}, {0, 0, 1}, {0, 0, 1}}, 2.0);
   for (const Cell& cell : {Cell{Vec3f(0.5f, 0.5f, 0.5f), 1.0f, 0}, Cell{Vec3f(0.25f, 0.25f, 0.5f), 0.5f, 1}}) {
     const int n = 800;
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
@@ -142,16 +140,16 @@ SphereCase bumpySphereCase() {
   const auto toUnit = [](const Vec3f& p) { return Vec3f(0.5f + 0.4f * p.x(), 0.5f + 0.4f * p.y(), 0.5f + 0.4f * p.z()); };
   for (const Vec3f& p : sphere.points.positions) c.coarse.positions.push_back(toUnit(p));
   c.coarse.triangles = sphere.triangles;
+  std::vector<Vec3f> positions, normals;
   for (const Vec3f& p : dense.points.positions) {
-    c.detail.positions.push_back(toUnit(p));
+    positions.push_back(toUnit(p));
     Vec3f normal = p.normalized();
     // In the bump, the normal wobbles with the longitude: high variation.
     if (inBump(p)) normal = (normal + 0.5f * Vec3f(std::sin(40.0f * p.x()), std::cos(40.0f * p.y()), 0.0f)).normalized();
-    c.detail.cornerNormals.push_back(normal);
+    normals.push_back(normal);
   }
-  c.detail.triangles = dense.triangles;
   const double meanArea = 4.0 * std::numbers::pi * 0.4 * 0.4 / static_cast<double>(dense.triangles.size());
-  c.detail.areaScale = 1.0 / meanArea;
+  c.detail = DetailPrimitives::ofMesh(positions, dense.triangles, normals, 1.0 / meanArea);
   return c;
 }
 
@@ -260,7 +258,7 @@ double totalLeafError(const SphereCase& c, const Octree& octree) {
     if (!node.isLeaf()) continue;
     std::vector<std::uint32_t> overlapping;
     for (std::uint32_t t = 0; t < c.detail.triangles.size(); ++t) {
-      const auto corners = c.detail.corners(t);
+      const auto& corners = c.detail.triangles[t].corners;
       if (triangleOverlapsBox(corners[0], corners[1], corners[2], cells[n])) overlapping.push_back(t);
     }
     total += normalVariation(c.detail, overlapping, cells[n]);
@@ -295,22 +293,19 @@ TEST(BuildOctreeWithABudget, StopsWhereNoSplitHelps) {
   // cell inside one face has no error and never splits; only cells across
   // edges do (down to the maximum depth), and the budget is not needed.
   SphereCase c = bumpySphereCase();
-  c.detail.positions = c.coarse.positions;
-  c.detail.triangles = c.coarse.triangles;
-  c.detail.cornerNormals.clear();
+  std::vector<Vec3f> normals;
   std::vector<Triangle> flat;
   for (const Triangle& t : c.coarse.triangles) {
-    const Vec3f& a = c.detail.positions[t[0]];
-    const Vec3f normal = (c.detail.positions[t[1]] - a).cross(c.detail.positions[t[2]] - a).normalized();
-    const auto base = static_cast<std::uint32_t>(c.detail.cornerNormals.size());
-    for (int k = 0; k < 3; ++k) c.detail.cornerNormals.push_back(normal);
+    const Vec3f& a = c.coarse.positions[t[0]];
+    const Vec3f normal = (c.coarse.positions[t[1]] - a).cross(c.coarse.positions[t[2]] - a).normalized();
+    const auto base = static_cast<std::uint32_t>(normals.size());
+    for (int k = 0; k < 3; ++k) normals.push_back(normal);
     flat.push_back({base, base + 1, base + 2});
   }
   std::vector<Vec3f> positions;
   for (const Triangle& t : c.coarse.triangles)
     for (int k = 0; k < 3; ++k) positions.push_back(c.coarse.positions[t[k]]);
-  c.detail.positions = positions;
-  c.detail.triangles = flat;
+  c.detail = DetailPrimitives::ofMesh(positions, flat, normals, c.detail.areaScale);
   const BuiltOctree built = buildOctree(c.coarse, c.detail, budgetSettings(1u << 20));
   EXPECT_EQ(built.refinement.stoppedBy, "converged");
   EXPECT_LT(built.refinement.texels, 1u << 18);

@@ -71,6 +71,21 @@ TEST(BakeCommand, SameBytesWithOneOrTwoThreads) {
         << file;
 }
 
+// apo restarts itself with glibc's huge-page tunable (cli/main.cpp) unless
+// the caller set it: where the memory lies must not change a byte.
+TEST(BakeCommand, SameBytesOnHugePagesOrNot) {
+  const Inputs in;
+  ASSERT_EQ(apo(bakeArguments(in, in.dir / "huge")).exitCode, 0);
+  const auto small = test::runCommand(fmt::format("GLIBC_TUNABLES=glibc.malloc.hugetlb=0 {} {}", test::apoExecutable().string(),
+                                                  bakeArguments(in, in.dir / "small")));
+  ASSERT_EQ(small.exitCode, 0) << small.output;
+  for (const char* file : {"scan.apo", "texture.png"})
+    EXPECT_EQ(test::runCommand(fmt::format("cmp '{}' '{}'", (in.dir / "huge" / file).string(), (in.dir / "small" / file).string()))
+                  .exitCode,
+              0)
+        << file;
+}
+
 TEST(LookupCommand, GivesTheBakedNormalPerPointAndZeroOutside) {
   const Inputs in;
   const fs::path out = in.dir / "out";
@@ -143,7 +158,9 @@ TEST(LookupCommand, FilterGivesTheFilteredLookupOfTheReport) {
         differing += (n - expected.normal).norm() > 1e-3f;
       }
     }
-    if (!filtered) EXPECT_GT(differing, points.size() / 2);  // the two walks do differ
+    if (!filtered) {
+      EXPECT_GT(differing, points.size() / 2);  // the two walks do differ
+    }
   }
   const auto both = apo(fmt::format("lookup '{}' '{}' -o '{}' --filter --depth 3", (out / "scan.apo").string(),
                                     (in.dir / "points.xyz").string(), (in.dir / "x.xyz").string()));
