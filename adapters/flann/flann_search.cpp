@@ -88,6 +88,9 @@ class FlannPointsClosest final : public ClosestPointFinder {
     return SurfacePoint{positions_[nearest], normals_[nearest]};
   }
 
+  const KdTree& tree() const { return *tree_; }
+  const std::vector<Vec3f>& positions() const { return positions_; }
+
  private:
   std::vector<Vec3f> positions_, normals_;
   std::unique_ptr<KdTree> tree_;
@@ -251,6 +254,17 @@ void batchRadii(const KdTree& tree, const std::vector<Vec3f>& points, std::size_
   }
 }
 
+// Each point's disc radius (at least two points): the tree is built over
+// `points`.
+std::vector<float> radiiOver(const KdTree& tree, const std::vector<Vec3f>& points) {
+  const std::size_t n = points.size();
+  const std::size_t neighbours = std::min(kSpacingNeighbours, n - 1);
+  std::vector<float> radii(n);
+  for (std::size_t first = 0; first < n; first += kSearchBatch)
+    batchRadii(tree, points, first, std::min(kSearchBatch, n - first), neighbours, radii);
+  return radii;
+}
+
 std::unique_ptr<ClosestPointFinder> newClosestPointFinder(const Scan& detail) {
   if (detail.isMesh()) return std::make_unique<FlannMeshClosest>(detail);
   return std::make_unique<FlannPointsClosest>(detail.points);
@@ -317,15 +331,20 @@ Result<std::unique_ptr<ClosestPointFinder>> makeFlannClosestPointOnDemand(const 
 // Fewer than two points have no spacing: their radii are 0, which the disc
 // caster refuses. Coincident points can also make a spacing 0.
 Result<std::vector<float>> discRadii(const PointSet& points) {
-  const std::size_t n = points.size();
-  if (n < 2) return std::vector<float>(n, 0.0f);
-  return catchLibraryErrors("FLANN disc radii", [&] {
-    const std::size_t neighbours = std::min(kSpacingNeighbours, n - 1);
-    const auto tree = buildKdTree(points.positions);
-    std::vector<float> radii(n);
-    for (std::size_t first = 0; first < n; first += kSearchBatch)
-      batchRadii(*tree, points.positions, first, std::min(kSearchBatch, n - first), neighbours, radii);
-    return radii;
+  if (points.size() < 2) return std::vector<float>(points.size(), 0.0f);
+  return catchLibraryErrors("FLANN disc radii", [&] { return radiiOver(*buildKdTree(points.positions), points.positions); });
+}
+
+Result<PointsSearch> makeFlannPointsSearch(const PointSet& points) {
+  Scan detail;
+  detail.points = points;
+  APO_RETURN_IF_ERROR(checkDetail(detail));
+  return catchLibraryErrors("FLANN search over the points", [&] {
+    auto closest = std::make_unique<FlannPointsClosest>(points);
+    PointsSearch search;
+    search.radii = points.size() < 2 ? std::vector<float>(points.size(), 0.0f) : radiiOver(closest->tree(), closest->positions());
+    search.closest = std::move(closest);
+    return search;
   });
 }
 

@@ -32,6 +32,14 @@ Result<std::unique_ptr<ClosestPointFinder>> makeFlannClosestPointOnDemand(const 
 // nearest other points). Fewer than two points get radius 0.
 Result<std::vector<float>> discRadii(const PointSet& points);
 
+// Points with unit normals: their disc radii and their closest-point finder
+// (makeFlannClosestPoint's), from one k-d tree; the same BadInput cases.
+struct PointsSearch {
+  std::vector<float> radii;
+  std::unique_ptr<ClosestPointFinder> closest;
+};
+Result<PointsSearch> makeFlannPointsSearch(const PointSet& points);
+
 namespace flann_adapter {
 
 // Distance from each query to its nearest reference point (+infinity when

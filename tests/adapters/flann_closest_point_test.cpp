@@ -319,5 +319,32 @@ TEST(DiscRadii, SmallCloudsUseTheNeighboursTheyHave) {
   EXPECT_TRUE(discRadii(PointSet{}).value().empty());
 }
 
+// The bake's points search: the radii and the nearest point from one tree,
+// checked against brute force; a single point and missing normals.
+TEST(FlannPointsSearch, RadiiAndNearestPointMatchBruteForce) {
+  Scan cloud;
+  cloud.points.positions = test::randomCubePoints(3000, 8);
+  for (const Vec3f& p : test::randomCubePoints(3000, 9)) cloud.points.normals.push_back(p.normalized());
+  const auto search = makeFlannPointsSearch(cloud.points);
+  ASSERT_TRUE(search.ok()) << search.error().message;
+  ASSERT_EQ(search->radii.size(), cloud.points.size());
+  for (std::size_t i = 0; i < cloud.points.size(); i += 37)
+    EXPECT_NEAR(search->radii[i], kFactor * bruteForceSpacing(cloud.points.positions, i, 6), 1e-5f * search->radii[i]);
+  const test::BruteForceClosestPoint bruteForce(cloud);
+  for (const Vec3f& unitQuery : test::randomCubePoints(500, 10)) {
+    const Vec3f q = 1.2f * unitQuery;
+    ASSERT_EQ(search->closest->closest(q).value().position, bruteForce.closest(q).value().position);
+  }
+  Scan single;
+  single.points.positions = {{1, 2, 3}};
+  single.points.normals = {{0, 0, 1}};
+  const auto one = makeFlannPointsSearch(single.points);
+  ASSERT_TRUE(one.ok());
+  EXPECT_EQ(one->radii, std::vector<float>{0.0f});
+  EXPECT_EQ(one->closest->closest({0, 0, 0}).value().position, Vec3f(1, 2, 3));
+  single.points.normals.clear();
+  EXPECT_FALSE(makeFlannPointsSearch(single.points).ok());
+}
+
 }  // namespace
 }  // namespace apo
