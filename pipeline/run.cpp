@@ -5,6 +5,7 @@
 // that says "running" and where it stopped.
 #include "pipeline/pipeline.h"
 
+#include "adapters/embree/embree_ray_caster.h"
 #include "core/file_io.h"
 #include "core/timing.h"
 #include "pipeline/manifest.h"
@@ -250,6 +251,9 @@ class Run {
       if (!probes) return probes.error();
       auto fidelity = measureAgainstScan(**probes, data_.scan.points, data_.dense, data_.texture);
       if (!fidelity) return aboutInput(settings_.input, fidelity.error());
+      auto coarseCaster = makeEmbreeMeshCaster(data_.coarse);
+      if (!coarseCaster) return aboutInput(settings_.input, coarseCaster.error());
+      fidelity->views = measureViewsAgainstScan(**probes, data_.texture, cameras, **coarseCaster);
       manifest_["results"]["render"]["against_scan"] = Json::parse(scanFidelityJson(*fidelity));
       // The probes, when the bake made them, are not in this figure.
       manifest_["results"]["render"]["against_scan"]["seconds"] = judging.seconds();

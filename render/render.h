@@ -7,6 +7,7 @@
 #include "format/format.h"
 #include "core/error.h"
 #include "core/geometry.h"
+#include "core/ray_caster.h"
 
 #include <cstdint>
 #include <filesystem>
@@ -226,15 +227,27 @@ Result<ScanProbes> probeAgainstScan(const PointSet& scan, const Scan& coarse, st
 // degrees where it has no answer).
 AngularStats apoErrorAgainstScan(const ScanProbes& probes, const ApoTexture& apo);
 
+// The same figures per view: the kept probes a camera sees, those where m's
+// interpolated normal faces the eye and no part of m lies between the probe
+// and the eye (a ray cast through `coarse`, m's caster). A probe can be seen
+// from several views. "pixels": the probes seen.
+struct ViewAgainstScan {
+  AngularStats coarse, apo;
+};
+std::vector<ViewAgainstScan> measureViewsAgainstScan(const ScanProbes& probes, const ApoTexture& apo,
+                                                     const std::vector<Camera>& cameras, const RayCaster& coarse);
+
 // Everything against the scan: m's interpolated normal and the APO at the
 // probes; and M (when it is a mesh): each scan point's distance to M (every
 // n-th point, at most about `drawn` of them), as fractions of M's diagonal,
-// and the angle between its normal and M's at the closest point.
+// and the angle between its normal and M's at the closest point. `views`:
+// measureViewsAgainstScan's, when the caller measured them.
 struct ScanFidelity {
   std::uint64_t probes = 0, kept = 0;
   AngularStats coarse, apo;  // "pixels": probes kept
   AngularStats dense;        // "pixels": scan points
   double denseMeanDistance = 0.0, denseP95Distance = 0.0;
+  std::vector<ViewAgainstScan> views;
 };
 Result<ScanFidelity> measureAgainstScan(const ScanProbes& probes, const PointSet& scan, const Scan& dense,
                                         const ApoTexture& apo);

@@ -121,6 +121,10 @@ std::string scanFidelityJson(const ScanFidelity& f) {
                                                            {"mean_distance", f.denseMeanDistance},
                                                            {"p95_distance", f.denseP95Distance},
                                                            {"distance_unit", "bbox_diagonal"}};
+  nlohmann::ordered_json views = nlohmann::ordered_json::array();
+  for (const ViewAgainstScan& view : f.views)
+    views.push_back({{"probes_seen", view.apo.pixels}, {"m", statistics(view.coarse)}, {"apo_filtered", statistics(view.apo)}});
+  json["views"] = std::move(views);
   return json.dump();
 }
 

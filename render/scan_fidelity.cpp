@@ -121,7 +121,10 @@ Result<ScanProbes> probeAgainstScan(const PointSet& scan, const Scan& coarse, st
   return kept;
 }
 
-AngularStats apoErrorAgainstScan(const ScanProbes& probes, const ApoTexture& apo) {
+namespace {
+
+// The APO's filtered lookup against the truth, per kept probe.
+std::vector<float> apoDegreesAgainstScan(const ScanProbes& probes, const ApoTexture& apo) {
   std::vector<float> degrees(probes.positions.size());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, degrees.size(), 4096), [&](const auto& range) {
     for (std::size_t q = range.begin(); q < range.end(); ++q) {
@@ -131,7 +134,59 @@ AngularStats apoErrorAgainstScan(const ScanProbes& probes, const ApoTexture& apo
       degrees[q] = looked.found ? static_cast<float>(angleDegrees(looked.normal, probes.truths[q])) : 180.0f;
     }
   });
-  return statsOfAngles(std::move(degrees));
+  return degrees;
+}
+
+std::vector<float> coarseDegreesAgainstScan(const ScanProbes& probes) {
+  std::vector<float> degrees(probes.positions.size());
+  for (std::size_t q = 0; q < degrees.size(); ++q)
+    degrees[q] = static_cast<float>(angleDegrees(probes.coarseNormals[q], probes.truths[q]));
+  return degrees;
+}
+
+// Which probes `camera` sees: m faces the eye there, and a ray from the
+// probe to the eye meets no other part of m. The ray leaves the probe's own
+// face by a small fraction of the way (the probe lies on m).
+std::vector<bool> seenFrom(const ScanProbes& probes, const Camera& camera, const RayCaster& coarse) {
+  constexpr float kLeaveSurface = 1e-4f;
+  std::vector<bool> seen(probes.positions.size(), false);
+  std::vector<Ray> rays;
+  std::vector<std::size_t> cast;
+  for (std::size_t q = 0; q < probes.positions.size(); ++q) {
+    const Vec3f toEye = camera.eye - probes.positions[q];
+    if (probes.coarseNormals[q].dot(toEye) <= 0.0f) continue;
+    rays.push_back(Ray{probes.positions[q], toEye, kLeaveSurface, 1.0f});
+    cast.push_back(q);
+  }
+  std::vector<RayHit> hits;
+  coarse.intersect(rays, hits);
+  for (std::size_t i = 0; i < cast.size(); ++i) seen[cast[i]] = !hits[i].hit();
+  return seen;
+}
+
+std::vector<float> subset(const std::vector<float>& values, const std::vector<bool>& kept) {
+  std::vector<float> out;
+  for (std::size_t i = 0; i < values.size(); ++i)
+    if (kept[i]) out.push_back(values[i]);
+  return out;
+}
+
+}  // namespace
+
+AngularStats apoErrorAgainstScan(const ScanProbes& probes, const ApoTexture& apo) {
+  return statsOfAngles(apoDegreesAgainstScan(probes, apo));
+}
+
+std::vector<ViewAgainstScan> measureViewsAgainstScan(const ScanProbes& probes, const ApoTexture& apo,
+                                                     const std::vector<Camera>& cameras, const RayCaster& coarse) {
+  const std::vector<float> apoDegrees = apoDegreesAgainstScan(probes, apo);
+  const std::vector<float> coarseDegrees = coarseDegreesAgainstScan(probes);
+  std::vector<ViewAgainstScan> views;
+  for (const Camera& camera : cameras) {
+    const std::vector<bool> seen = seenFrom(probes, camera, coarse);
+    views.push_back({statsOfAngles(subset(coarseDegrees, seen)), statsOfAngles(subset(apoDegrees, seen))});
+  }
+  return views;
 }
 
 Result<ScanFidelity> measureAgainstScan(const ScanProbes& probes, const PointSet& scan, const Scan& dense,
@@ -140,10 +195,7 @@ Result<ScanFidelity> measureAgainstScan(const ScanProbes& probes, const PointSet
   fidelity.probes = probes.drawn;
   fidelity.kept = probes.positions.size();
   if (fidelity.kept == 0) return fidelity;
-  std::vector<float> coarseDegrees(fidelity.kept);
-  for (std::size_t q = 0; q < coarseDegrees.size(); ++q)
-    coarseDegrees[q] = static_cast<float>(angleDegrees(probes.coarseNormals[q], probes.truths[q]));
-  fidelity.coarse = statsOfAngles(std::move(coarseDegrees));
+  fidelity.coarse = statsOfAngles(coarseDegreesAgainstScan(probes));
   fidelity.apo = apoErrorAgainstScan(probes, apo);
   if (dense.isMesh()) APO_RETURN_IF_ERROR(measureDense(scan, dense, probes.drawn, fidelity));
   return fidelity;

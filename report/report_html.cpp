@@ -317,6 +317,7 @@ std::string nodesPerDepthSvg(const Json& perDepth) {
 struct ViewMeans {
   int index = 0;
   std::optional<double> apo, baseline;
+  std::optional<double> apoScan, baselineScan;  // against the scan's own points (point scans)
 };
 
 // Mean angular error per view, the APO (class "bar apo") beside the baseline
@@ -430,6 +431,61 @@ std::string beside(double ratio, double baselineMean) {
   return fmt::format(" (the coarse mesh m alone: {}).", degrees(baselineMean, 1));
 }
 
+std::vector<ViewMeans> viewMeans(const Json* views) {
+  std::vector<ViewMeans> means;
+  if (views == nullptr || !views->is_array()) return means;
+  for (std::size_t i = 0; i < views->size(); ++i) {
+    const Json& view = (*views)[i];
+    ViewMeans m;
+    const std::optional<double> index = numberAt(&view, {"index"});
+    m.index = index && *index >= 0.0 && *index < 1e6 ? static_cast<int>(*index) : static_cast<int>(i);
+    m.apo = numberAt(&view, {"apo", "angular_error_degrees", "mean"});
+    m.baseline = numberAt(&view, {"baseline", "angular_error_degrees", "mean"});
+    means.push_back(m);
+  }
+  return means;
+}
+
+// The render's views with, for a point scan, each view's figures against the
+// scan's own points (render.against_scan.views, in the same order).
+std::vector<ViewMeans> viewMeans(const Json* render, const Json* views) {
+  std::vector<ViewMeans> means = viewMeans(views);
+  const Json* scanViews = at(render, {"against_scan", "views"});
+  if (scanViews == nullptr || !scanViews->is_array() || scanViews->size() != means.size()) return means;
+  for (std::size_t i = 0; i < means.size(); ++i) {
+    const Json& view = (*scanViews)[i];
+    if (numberAt(&view, {"probes_seen"}).value_or(0.0) <= 0.0) continue;
+    means[i].apoScan = numberAt(&view, {"apo_filtered", "mean"});
+    means[i].baselineScan = numberAt(&view, {"m", "mean"});
+  }
+  return means;
+}
+
+bool hasScanMeans(const std::vector<ViewMeans>& means) {
+  return std::any_of(means.begin(), means.end(), [](const ViewMeans& m) { return m.apoScan.has_value(); });
+}
+
+// "m with APO 1.2°, m alone 3.4° (2.8×)", or a dash for what is missing.
+std::string meansText(const std::optional<double>& apo, const std::optional<double>& baseline) {
+  std::string text = fmt::format("m with APO <b>{}</b>, m alone {}", degrees(apo), degrees(baseline));
+  if (apo && baseline && *apo > 0.0) text += fmt::format(" ({}&times;)", ratioText(*baseline / *apo));
+  return text;
+}
+
+// How many views, against the scan, show the APO closer than m alone.
+std::string scanViewsVerdict(const std::vector<ViewMeans>& means) {
+  if (!hasScanMeans(means)) return "";
+  int seen = 0, closer = 0;
+  for (const ViewMeans& m : means) {
+    if (!m.apoScan || !m.baselineScan) continue;
+    ++seen;
+    closer += *m.apoScan < *m.baselineScan ? 1 : 0;
+  }
+  return fmt::format("<p>Against the scan's own points, view by view (the probes each view sees), the APO is closer "
+                     "than m alone in <b>{} of {}</b> views.</p>\n",
+                     closer, seen);
+}
+
 // A point scan's first verdict: against its own points (docs/render.md).
 std::string scanVerdict(const Json* scan) {
   const std::optional<double> apo = numberAt(scan, {"apo_filtered", "mean"}), coarse = numberAt(scan, {"m", "mean"});
@@ -454,6 +510,7 @@ std::string verdict(const Json& manifest) {
     html += "<p>No angular figures: the render had no reference M to compare with.</p>\n";
   } else if (apoMean && baselineMean) {
     html += scanVerdict(child(render, "against_scan"));
+    html += scanViewsVerdict(viewMeans(render, child(render, "views")));
     html += fmt::format("<p>APO normals are <b>{}</b> from the dense mesh M on average", degrees(apoMean, 1));
     if (*apoMean > 0.0) {
       html += beside(numberAt(render, {"overall", "baseline_over_apo"}).value_or(*baselineMean / *apoMean), *baselineMean);
@@ -489,21 +546,6 @@ std::string missingImageCell(const std::string& caption, const std::string& why)
   return "<figure><div class=\"noimg\">" + why + "</div><figcaption>" + caption + "</figcaption></figure>\n";
 }
 
-std::vector<ViewMeans> viewMeans(const Json* views) {
-  std::vector<ViewMeans> means;
-  if (views == nullptr || !views->is_array()) return means;
-  for (std::size_t i = 0; i < views->size(); ++i) {
-    const Json& view = (*views)[i];
-    ViewMeans m;
-    const std::optional<double> index = numberAt(&view, {"index"});
-    m.index = index && *index >= 0.0 && *index < 1e6 ? static_cast<int>(*index) : static_cast<int>(i);
-    m.apo = numberAt(&view, {"apo", "angular_error_degrees", "mean"});
-    m.baseline = numberAt(&view, {"baseline", "angular_error_degrees", "mean"});
-    means.push_back(m);
-  }
-  return means;
-}
-
 std::string viewsSection(const Json& manifest) {
   std::string html = "<section id=\"views\">\n<h2>Views</h2>\n";
   const Json* render = results(manifest, "render");
@@ -522,15 +564,18 @@ std::string viewsSection(const Json& manifest) {
           "APO, and the APO's angular error against M per pixel.</p>\n";
   html += "<div class=\"legend\"><span>heat map: angular error of m with the APO against M</span>" + heatMapLegend() +
           "<span>(10&deg;+: 10 degrees or more; transparent: pixel not covered by both)</span></div>\n";
-  const std::vector<ViewMeans> means = viewMeans(views);
+  const std::vector<ViewMeans> means = viewMeans(render, views);
   for (std::size_t i = 0; i < views->size(); ++i) {
     const Json& view = (*views)[i];
     const std::string nn = fmt::format("{:02d}", means[i].index);
     const std::string prefix = folder + "/view" + nn + "_";
     html += fmt::format("<div class=\"view\" id=\"view{}\">\n<h3>View {}</h3>\n<p class=\"viewstats\">", nn, nn);
-    html += fmt::format("mean angular error: m with APO <b>{}</b>, m alone {}", degrees(means[i].apo), degrees(means[i].baseline));
-    if (means[i].apo && means[i].baseline && *means[i].apo > 0.0)
-      html += fmt::format(" ({}&times;)", ratioText(*means[i].baseline / *means[i].apo));
+    if (means[i].apoScan)
+      html += "mean angular error against the scan's points seen: " + meansText(means[i].apoScan, means[i].baselineScan) +
+              " &middot; against M: ";
+    else
+      html += "mean angular error: ";
+    html += meansText(means[i].apo, means[i].baseline);
     html += fmt::format(" &middot; image MAE (of 255): m with APO <b>{}</b>, m alone {}",
                         fixed(numberAt(&view, {"apo", "image", "mean_absolute_error"}), 2),
                         fixed(numberAt(&view, {"baseline", "image", "mean_absolute_error"}), 2));
@@ -659,16 +704,23 @@ std::string metricsSection(const Json& manifest) {
   html += againstScanTable(child(render, "against_scan"));
 
   if (views != nullptr && views->is_array() && !views->empty()) {
-    html += "<table class=\"per-view\">\n<thead><tr><th>view</th><th class=\"n\">APO mean</th><th class=\"n\">baseline mean</th>"
+    const std::vector<ViewMeans> means = viewMeans(render, views);
+    const bool scanColumns = hasScanMeans(means);
+    html += "<table class=\"per-view\">\n<thead><tr><th>view</th>";
+    if (scanColumns) html += "<th class=\"n\">APO mean, against the scan</th><th class=\"n\">baseline mean, against the scan</th>";
+    html += "<th class=\"n\">APO mean</th><th class=\"n\">baseline mean</th>"
             "<th class=\"n\">APO MAE</th><th class=\"n\">baseline MAE</th><th class=\"n\">APO PSNR dB</th>"
             "<th class=\"n\">baseline PSNR dB</th><th class=\"n\">APO SSIM</th><th class=\"n\">baseline SSIM</th></tr></thead>\n<tbody>\n";
-    const std::vector<ViewMeans> means = viewMeans(views);
     for (std::size_t i = 0; i < views->size(); ++i) {
       const Json& view = (*views)[i];
+      const std::string scanCells =
+          scanColumns ? fmt::format("<td class=\"n\">{}</td><td class=\"n\">{}</td>", degrees(means[i].apoScan),
+                                    degrees(means[i].baselineScan))
+                      : std::string();
       html += fmt::format(
-          "<tr><td>{:02d}</td><td class=\"n\">{}</td><td class=\"n\">{}</td><td class=\"n\">{}</td><td class=\"n\">{}</td>"
+          "<tr><td>{:02d}</td>{}<td class=\"n\">{}</td><td class=\"n\">{}</td><td class=\"n\">{}</td><td class=\"n\">{}</td>"
           "<td class=\"n\">{}</td><td class=\"n\">{}</td><td class=\"n\">{}</td><td class=\"n\">{}</td></tr>\n",
-          means[i].index, degrees(means[i].apo), degrees(means[i].baseline),
+          means[i].index, scanCells, degrees(means[i].apo), degrees(means[i].baseline),
           fixed(numberAt(&view, {"apo", "image", "mean_absolute_error"}), 2),
           fixed(numberAt(&view, {"baseline", "image", "mean_absolute_error"}), 2), psnrText(view, "apo"),
           psnrText(view, "baseline"), fixed(numberAt(&view, {"apo", "image", "ssim"}), 3),

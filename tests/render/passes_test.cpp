@@ -9,6 +9,8 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <cmath>
+#include <limits>
 #include <string>
 
 namespace apo {
@@ -110,6 +112,76 @@ TEST_F(BumpySphereRender, AgainstTheScanTheApoIsCloserThanMAlone) {
   EXPECT_GT(partial->positions.size(), 20000u);
   EXPECT_LT(partial->positions.size(), 30000u);
   EXPECT_FALSE(probeAgainstScan(PointSet{}, *coarse_).ok());
+}
+
+// The face of m a point lies on (brute force: the nearest face plane whose
+// triangle holds the point).
+Vec3f faceNormalAt(const Scan& mesh, const Vec3f& point) {
+  const auto& p = mesh.points.positions;
+  float best = std::numeric_limits<float>::infinity();
+  Vec3f normal = Vec3f::Zero();
+  for (const Triangle& t : mesh.triangles) {
+    const Vec3f n = (p[t[1]] - p[t[0]]).cross(p[t[2]] - p[t[0]]);
+    const float away = std::abs(n.normalized().dot(point - p[t[0]]));
+    bool inside = true;
+    for (int k = 0; k < 3; ++k)
+      inside = inside && (p[t[(k + 1) % 3]] - p[t[k]]).cross(point - p[t[k]]).dot(n) >= -1e-7f;
+    if (inside && away < best) best = away, normal = n;
+  }
+  return normal;
+}
+
+// Per view, against the scan: on the convex m a probe is seen where both
+// m's interpolated normal (what the renderer shades) and its face face the
+// eye; a large plate between m and the first view's eye hides every probe
+// from that view and from no view that does not look through it.
+TEST_F(BumpySphereRender, EachViewIsJudgedOnTheProbesItSees) {
+  const test::BumpySphere shape;
+  PointSet scan;
+  for (const Vec3f& d : test::fibonacciSpherePoints(20000)) {
+    scan.positions.push_back(shape.surfacePoint(d));
+    scan.normals.push_back(shape.normal(d));
+  }
+  const auto probes = probeAgainstScan(scan, *coarse_, 3000);
+  ASSERT_TRUE(probes.ok()) << probes.error().message;
+  const std::vector<Camera> cameras = standardViews(boundingBox(coarse_->points.positions), 14);
+  const test::BruteForceCaster caster(*coarse_);
+  const std::vector<ViewAgainstScan> views = measureViewsAgainstScan(*probes, *texture_, cameras, caster);
+  ASSERT_EQ(views.size(), cameras.size());
+  std::vector<Vec3f> faceNormals;
+  for (const Vec3f& probe : probes->positions) faceNormals.push_back(faceNormalAt(*coarse_, probe));
+  for (std::size_t v = 0; v < views.size(); ++v) {
+    std::uint64_t facing = 0;
+    for (std::size_t q = 0; q < probes->positions.size(); ++q) {
+      const Vec3f toEye = cameras[v].eye - probes->positions[q];
+      facing += probes->coarseNormals[q].dot(toEye) > 0.0f && faceNormals[q].dot(toEye) > 0.0f ? 1 : 0;
+    }
+    EXPECT_EQ(views[v].apo.pixels, facing) << "view " << v;
+    EXPECT_EQ(views[v].coarse.pixels, facing) << "view " << v;
+    // A sphere seen from outside: a bit under half of the probes.
+    EXPECT_GT(facing, probes->positions.size() / 3) << "view " << v;
+    EXPECT_LT(views[v].apo.mean, 0.5 * views[v].coarse.mean) << "view " << v;
+  }
+
+  // The plate: a square ten radii wide, halfway between the centre and the
+  // first eye, facing it.
+  Scan plated = *coarse_;
+  const Vec3f centre = cameras[0].target, axis = (cameras[0].eye - centre).normalized();
+  const Vec3f side = axis.unitOrthogonal() * 10.0f, up = axis.cross(side);
+  const Vec3f middle = centre + 0.5f * (cameras[0].eye - centre);
+  const auto first = static_cast<std::uint32_t>(plated.points.positions.size());
+  for (const Vec3f& corner : std::array<Vec3f, 4>{middle - side - up, middle + side - up, middle + side + up, middle - side + up})
+    plated.points.positions.push_back(corner);
+  plated.points.normals.clear();
+  plated.triangles.push_back({first, first + 1, first + 2});
+  plated.triangles.push_back({first, first + 2, first + 3});
+  const test::BruteForceCaster platedCaster(plated);
+  const std::vector<ViewAgainstScan> hidden = measureViewsAgainstScan(*probes, *texture_, cameras, platedCaster);
+  EXPECT_EQ(hidden[0].apo.pixels, 0u);
+  int unchanged = 0;
+  for (std::size_t v = 1; v < views.size(); ++v) unchanged += hidden[v].apo.pixels == views[v].apo.pixels ? 1 : 0;
+  // The opposite view and the four side views at least look past the plate.
+  EXPECT_GE(unchanged, 5);
 }
 
 TEST_F(BumpySphereRender, GlslDecodesXyz8LikeTheCpu) {

@@ -216,6 +216,31 @@ TEST(ReportHtml, ShowsTheFiguresAgainstTheScanForPointScans) {
   EXPECT_THAT(qaReportHtml(m), Not(HasSubstr("against the scan's own points")));
 }
 
+// View by view against the scan: each view's probes it sees, in the view's
+// line, in the per-view table and counted in the verdict; figures that do
+// not match the views one for one are not shown.
+TEST(ReportHtml, JudgesEachViewAgainstTheScanForPointScans) {
+  Json m = succeededManifest("kitten.xyz", 2);
+  const auto view = [](double apo, double coarse, int seen) {
+    return Json{{"probes_seen", seen}, {"m", {{"mean", coarse}}}, {"apo_filtered", {{"mean", apo}}}};
+  };
+  m["results"]["render"]["against_scan"] = {{"m", {{"mean", 2.0}}},
+                                            {"apo_filtered", {{"mean", 1.5}}},
+                                            {"views", {view(1.0, 2.0, 900), view(3.0, 2.0, 700)}}};
+  const std::string html = qaReportHtml(m);
+  EXPECT_THAT(html, HasSubstr("the APO is closer than m alone in <b>1 of 2</b> views."));
+  EXPECT_THAT(html, HasSubstr("against the scan's points seen: m with APO <b>1.00&deg;</b>, m alone 2.00&deg; "
+                              "(2.0&times;) &middot; against M: m with APO"));
+  EXPECT_THAT(html, HasSubstr("<th class=\"n\">APO mean, against the scan</th>"));
+  EXPECT_THAT(html, HasSubstr("<tr><td>01</td><td class=\"n\">3.00&deg;</td><td class=\"n\">2.00&deg;</td>"));
+
+  m["results"]["render"]["against_scan"]["views"].push_back(view(1.0, 2.0, 5));
+  const std::string mismatched = qaReportHtml(m);
+  EXPECT_THAT(mismatched, Not(HasSubstr("view by view")));
+  EXPECT_THAT(mismatched, Not(HasSubstr("APO mean, against the scan")));
+  EXPECT_THAT(mismatched, Not(HasSubstr("against the scan's points seen")));
+}
+
 TEST(ReportHtml, SaysWhatTheApoWasBakedFromAndWhy) {
   Json m = succeededManifest("kitten.xyz", 1);
   m["results"]["bake"]["detail_source"] = {
