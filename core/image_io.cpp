@@ -23,21 +23,28 @@ void appendToString(void* context, void* data, int size) {
 
 }  // namespace
 
+Result<std::string> encodePng8(std::uint32_t width, std::uint32_t height, int channels,
+                               const std::vector<std::uint8_t>& pixels) {
+  // stb takes int sizes and an int row stride.
+  if (channels < 1 || channels > 4 || width == 0 || height == 0 || width > INT_MAX / 4 || height > INT_MAX)
+    return internalError("cannot encode a {} x {} PNG of {} channels", width, height, channels);
+  const std::uint64_t expected = std::uint64_t{width} * height * static_cast<std::uint64_t>(channels);
+  if (pixels.size() != expected)
+    return internalError("{} bytes of pixels for a {} x {} image of {} channels (expected {})", pixels.size(), width,
+                         height, channels, expected);
+  std::string png;
+  const int stride = static_cast<int>(width) * channels;
+  if (stbi_write_png_to_func(appendToString, &png, static_cast<int>(width), static_cast<int>(height), channels,
+                             pixels.data(), stride) == 0)
+    return internalError("the PNG encoder failed on a {} x {} image", width, height);
+  return png;
+}
+
 Status writePngRgba8(const std::filesystem::path& path, std::uint32_t width, std::uint32_t height,
                      const std::vector<std::uint8_t>& rgba) {
-  constexpr std::uint64_t kChannels = 4;
-  // stb takes int sizes and an int row stride.
-  if (width == 0 || height == 0 || width > INT_MAX / kChannels || height > INT_MAX)
-    return internalError("{}: cannot write a {} x {} PNG", path.string(), width, height);
-  if (rgba.size() != std::uint64_t{width} * height * kChannels)
-    return internalError("{}: {} bytes of pixels for a {} x {} RGBA image (expected {})", path.string(), rgba.size(),
-                         width, height, std::uint64_t{width} * height * kChannels);
-  std::string png;
-  const int stride = static_cast<int>(width * kChannels);
-  if (stbi_write_png_to_func(appendToString, &png, static_cast<int>(width), static_cast<int>(height),
-                             static_cast<int>(kChannels), rgba.data(), stride) == 0)
-    return internalError("{}: the PNG encoder failed on a {} x {} image", path.string(), width, height);
-  return writeFileAtomically(path, png);
+  auto png = encodePng8(width, height, 4, rgba);
+  if (!png) return internalError("{}: {}", path.string(), png.error().message);
+  return writeFileAtomically(path, *png);
 }
 
 }  // namespace apo

@@ -25,9 +25,10 @@ ALLOWED = {
     "bake": {"core", "format"},
     "render": {"core", "format", "adapters/osmesa", "adapters/flann"},
     "report": {"core"},
-    "pipeline": {"core", "format", "ingest", "reconstruct", "bake", "render", "report", "adapters/embree",
-                 "adapters/flann"},
-    "cli": {"core", "format", "ingest", "reconstruct", "bake", "render", "report", "pipeline"},
+    "export": {"core", "format"},
+    "pipeline": {"core", "format", "ingest", "reconstruct", "bake", "render", "report", "export",
+                 "adapters/embree", "adapters/flann"},
+    "cli": {"core", "format", "ingest", "reconstruct", "bake", "render", "report", "export", "pipeline"},
 }
 
 # The headers other rooms may include.
@@ -45,6 +46,7 @@ PUBLIC = {
     "bake": {"bake.h"},
     "render": {"render.h"},
     "report": {"report.h"},
+    "export": {"export.h"},
     "pipeline": {"pipeline.h", "bake_seams.h", "progress.h"},
     "cli": set(),
 }

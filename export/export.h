@@ -1,0 +1,80 @@
+// Standard delivery (docs/export.md): m as a glTF 2.0 binary (GLB) with a
+// tangent-space normal map made without any UV unwrap: every triangle of m
+// gets its own patch of the map (the packed per-triangle normal patches of
+// ../shared/papers/texture-based-shading-packed-normal-patches.txt), filled
+// from a normal field (the APO's filtered lookup) in exactly the tangent
+// frame a glTF viewer rebuilds from the file.
+#pragma once
+
+#include "core/error.h"
+#include "core/geometry.h"
+
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace apo {
+
+using Vec2f = Eigen::Vector2f;
+
+// Where each triangle of m lies in the map, in texel units (x right, y down,
+// texel (i, j) covers [i, i+1) x [j, j+1)). Each patch is its triangle laid
+// flat without shearing (a similarity: lengths scaled by texelsPerUnit), its
+// longest edge along x; patches and their gutters do not overlap.
+struct PatchAtlas {
+  std::uint32_t width = 0, height = 0;
+  float texelsPerUnit = 0.0f;
+  int gutter = 0;                            // texels kept free round each patch
+  std::vector<std::array<Vec2f, 3>> corners;  // per triangle of m, in its corner order
+  double usedShare = 0.0;                    // texels inside a triangle / all texels
+};
+
+// Packs every triangle of `coarse` into a width x height map at the largest
+// texel density that fits (shelves of patches sorted by height, a binary
+// search on the density), `gutter` texels apart and from the border.
+// BadInput when m has no triangle of positive area; Usage when the sizes are
+// outside [16, 16384] or the gutter outside [1, 8].
+Result<PatchAtlas> packTrianglePatches(const Scan& coarse, std::uint32_t width, std::uint32_t height, int gutter = 2);
+
+// m as a glTF primitive: three vertices per triangle (a patch each), m's
+// area-weighted vertex normals, a tangent per vertex (the direction of +u in
+// the triangle's plane, made orthogonal to the vertex normal; w = +1) and the
+// patch's UVs (u = x / width, v = y / height: glTF's origin at the image's
+// top-left).
+struct GltfMesh {
+  std::vector<Vec3f> positions, normals;
+  std::vector<Eigen::Vector4f> tangents;
+  std::vector<Vec2f> uvs;
+  std::vector<std::uint32_t> indices;
+};
+GltfMesh patchMesh(const Scan& coarse, const PatchAtlas& atlas);
+
+// The normal to show at a point of m, given m's interpolated normal there
+// (unit); a zero vector means "no answer" (the map then keeps m's normal).
+using NormalField = std::function<Vec3f(const Vec3f& point, const Vec3f& coarseNormal)>;
+
+// The tangent-space normal map: RGB8, row-major, top row first. Each texel
+// whose centre lies within the gutter of a patch takes the field at the
+// closest point of that triangle, expressed in the frame glTF 2.0 defines
+// (n = normalize(T x + B y + N z), N and T interpolated, T made orthogonal
+// to N, B = cross(N, T) w), so that a viewer decodes the field's normal up
+// to 8-bit rounding. Texels outside every patch are filled by push-pull (the
+// mean of the filled texels nearby, coarse to fine), so that mip-maps do not
+// bleed m's flat blue into the patches' edges.
+struct NormalMap {
+  std::uint32_t width = 0, height = 0;
+  std::vector<std::uint8_t> rgb;
+  std::uint64_t texelsFilled = 0, texelsWithoutAnswer = 0;  // from the field; of those, left at m's normal
+};
+NormalMap bakeTangentNormalMap(const GltfMesh& mesh, const PatchAtlas& atlas, const NormalField& field);
+
+// The GLB (glTF 2.0 binary): one mesh, one node, a metallic-roughness
+// material whose normalTexture is `normalPng` (TEXCOORD_0, linear filtering
+// with mip-maps, clamped), and `extras` (a JSON object's text, may be empty)
+// on the asset. Bytes depend only on the arguments.
+std::string glbBytes(const GltfMesh& mesh, const std::string& normalPng, const std::string& generator,
+                     const std::string& extras);
+
+}  // namespace apo

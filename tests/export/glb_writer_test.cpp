@@ -1,0 +1,87 @@
+// The GLB container read back by a reader written here from the glTF 2.0
+// specification's "Binary glTF Layout" (the Khronos validator checks the
+// exported files in tests/export/gltf_validator_test).
+#include "export/export.h"
+
+#include "tests/test_support.h"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <cstring>
+
+namespace apo {
+namespace {
+
+std::uint32_t u32At(const std::string& bytes, std::size_t offset) {
+  std::uint32_t value = 0;
+  for (int k = 3; k >= 0; --k) value = value << 8 | static_cast<std::uint8_t>(bytes[offset + static_cast<std::size_t>(k)]);
+  return value;
+}
+
+TEST(GlbWriter, HeaderChunksAndAccessorsFollowTheSpecification) {
+  const Scan mesh = test::makeIcosphere(1);
+  const auto atlas = packTrianglePatches(mesh, 64, 64, 1);
+  ASSERT_TRUE(atlas.ok()) << atlas.error().message;
+  const GltfMesh gltf = patchMesh(mesh, *atlas);
+  const std::string png = "\x89PNG not really an image, 37 bytes";
+  const std::string glb = glbBytes(gltf, png, "apo test", R"({"apo": {"map": [64, 64]}})");
+
+  ASSERT_GE(glb.size(), 28u);
+  EXPECT_EQ(glb.substr(0, 4), "glTF");
+  EXPECT_EQ(u32At(glb, 4), 2u);
+  EXPECT_EQ(u32At(glb, 8), glb.size());
+  const std::uint32_t jsonLength = u32At(glb, 12);
+  EXPECT_EQ(glb.substr(16, 4), "JSON");
+  EXPECT_EQ(jsonLength % 4, 0u);
+  const auto json = nlohmann::json::parse(glb.substr(20, jsonLength));
+  const std::size_t binHeader = 20 + jsonLength;
+  const std::uint32_t binLength = u32At(glb, binHeader);
+  EXPECT_EQ(glb.substr(binHeader + 4, 4), std::string("BIN\0", 4));
+  EXPECT_EQ(binHeader + 8 + binLength, glb.size());
+  const std::string bin = glb.substr(binHeader + 8, binLength);
+
+  EXPECT_EQ(json["asset"]["version"], "2.0");
+  EXPECT_EQ(json["asset"]["extras"]["apo"]["map"][0], 64);
+  EXPECT_EQ(json["buffers"][0]["byteLength"], binLength);
+  const auto& primitive = json["meshes"][0]["primitives"][0];
+  const auto view = [&](int accessor) { return json["bufferViews"][json["accessors"][accessor]["bufferView"].get<int>()]; };
+  // Every view 4-byte aligned and inside the buffer.
+  for (const auto& v : json["bufferViews"]) {
+    EXPECT_EQ(v["byteOffset"].get<std::size_t>() % 4, 0u);
+    EXPECT_LE(v["byteOffset"].get<std::size_t>() + v["byteLength"].get<std::size_t>(), bin.size());
+  }
+  // Positions read back as written, min and max bounding them.
+  const int positions = primitive["attributes"]["POSITION"];
+  const auto& accessor = json["accessors"][positions];
+  ASSERT_EQ(accessor["count"], gltf.positions.size());
+  const std::size_t offset = view(positions)["byteOffset"];
+  for (std::size_t i = 0; i < gltf.positions.size(); ++i)
+    for (int k = 0; k < 3; ++k) {
+      float value = 0.0f;
+      std::memcpy(&value, bin.data() + offset + 12 * i + 4 * static_cast<std::size_t>(k), 4);
+      EXPECT_EQ(value, gltf.positions[i][k]);
+      EXPECT_GE(value, accessor["min"][k].get<float>());
+      EXPECT_LE(value, accessor["max"][k].get<float>());
+    }
+  for (const char* name : {"NORMAL", "TANGENT", "TEXCOORD_0"})
+    EXPECT_EQ(json["accessors"][primitive["attributes"][name].get<int>()]["count"], gltf.positions.size()) << name;
+  EXPECT_EQ(json["accessors"][primitive["indices"].get<int>()]["count"], gltf.indices.size());
+  // The image's bytes, as given, behind the material's normal texture.
+  const int texture = json["materials"][primitive["material"].get<int>()]["normalTexture"]["index"];
+  const auto& image = json["images"][json["textures"][texture]["source"].get<int>()];
+  EXPECT_EQ(image["mimeType"], "image/png");
+  const auto& imageView = json["bufferViews"][image["bufferView"].get<int>()];
+  EXPECT_EQ(bin.substr(imageView["byteOffset"], imageView["byteLength"]), png);
+  // Tangents: unit, orthogonal to their normals, w = +1 (no mirrored patch).
+  for (std::size_t i = 0; i < gltf.tangents.size(); ++i) {
+    EXPECT_NEAR(gltf.tangents[i].head<3>().norm(), 1.0f, 1e-5f);
+    EXPECT_NEAR(gltf.tangents[i].head<3>().dot(gltf.normals[i]), 0.0f, 1e-5f);
+    EXPECT_EQ(gltf.tangents[i].w(), 1.0f);
+  }
+  // The same bytes every time.
+  EXPECT_EQ(glbBytes(gltf, png, "apo test", R"({"apo": {"map": [64, 64]}})"), glb);
+}
+
+}  // namespace
+}  // namespace apo
