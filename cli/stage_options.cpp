@@ -165,6 +165,15 @@ void addRenderOptions(CLI::App& app, RenderArguments& arguments) {
       ->capture_default_str();
 }
 
+void addExportOptions(CLI::App& app, ExportOptions& options) {
+  app.add_option("--map-size", options.mapSize, "The GLB's normal map: texels per side (square)")
+      ->check(CLI::Range(16, 16384))
+      ->capture_default_str();
+  app.add_option("--gutter", options.gutter, "Texels kept free round each triangle's patch of the normal map")
+      ->check(CLI::Range(1, 8))
+      ->capture_default_str();
+}
+
 void addStageOptionGroups(CLI::App& app, StageArguments& arguments) {
   app.add_option("--detail-source", arguments.detailSource,
                  "What the APO is baked from: mesh (the dense mesh M, reconstructed or the input mesh), points (the "
@@ -180,6 +189,10 @@ void addStageOptionGroups(CLI::App& app, StageArguments& arguments) {
   addGroup(app, "Simplify", [&] { addSimplifyOptions(app, arguments.simplify); });
   addGroup(app, "Bake", [&] { addBakeOptions(app, arguments.bake); });
   addGroup(app, "Render", [&] { addRenderOptions(app, arguments.render); });
+  addGroup(app, "Export", [&] {
+    app.add_flag("--no-export", arguments.noExport, "No asset.glb (the export stage is skipped)");
+    addExportOptions(app, arguments.exporting);
+  });
   app.add_option("--config", arguments.configFile,
                  "TOML file holding any of these options by name, without dashes (`faces = 5000`); the command line wins");
 }
@@ -198,6 +211,8 @@ RunOptions runOptionsFrom(StageArguments arguments) {
   options.simplify = arguments.simplify.options;
   options.bake = arguments.bake.options;
   options.render = arguments.render.options;
+  options.exporting = arguments.exporting;
+  options.exporting.enabled = !arguments.noExport;
   return options;
 }
 

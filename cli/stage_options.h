@@ -57,6 +57,8 @@ void addReconstructOptions(CLI::App& app, ReconstructOptions& options);
 void addSimplifyOptions(CLI::App& app, SimplifyArguments& arguments);
 void addBakeOptions(CLI::App& app, BakeArguments& arguments);
 void addRenderOptions(CLI::App& app, RenderArguments& arguments);
+// --map-size, --gutter (apo export and the export stage of apo run / batch).
+void addExportOptions(CLI::App& app, ExportOptions& options);
 
 // The stage options of `apo run` and `apo batch`: one group per stage in
 // --help, --detail-source and --config (TOML).
@@ -68,6 +70,8 @@ struct StageArguments {
   SimplifyArguments simplify;
   BakeArguments bake;
   RenderArguments render = reportRenderArguments();
+  ExportOptions exporting;
+  bool noExport = false;
   std::filesystem::path configFile;  // --config
 
   // The QA report's renders (pipeline.h reportRenderOptions), filtered unless

@@ -8,6 +8,7 @@
 
 #include "core/error.h"
 #include "core/geometry.h"
+#include "format/format.h"
 
 #include <array>
 #include <cstdint>
@@ -69,6 +70,39 @@ struct NormalMap {
   std::uint64_t texelsFilled = 0, texelsWithoutAnswer = 0;  // from the field; of those, left at m's normal
 };
 NormalMap bakeTangentNormalMap(const GltfMesh& mesh, const PatchAtlas& atlas, const NormalField& field);
+
+// ---- The export stage: a finished run's m and APO as a GLB ----------------
+
+struct ExportOptions {
+  bool enabled = true;           // apo run / apo batch: --no-export skips the stage
+  std::uint32_t mapSize = 1024;  // the normal map's texels per side (square)
+  int gutter = 2;                // texels kept free round each patch
+};
+// Usage error naming the option: map size in [16, 16384], gutter in [1, 8].
+Status validateExportOptions(const ExportOptions& options);
+
+struct ExportReport {
+  std::uint32_t mapWidth = 0, mapHeight = 0;
+  int gutter = 0;
+  float texelsPerUnit = 0.0f;
+  double usedShare = 0.0;
+  std::uint64_t triangles = 0, texelsFilled = 0, texelsWithoutAnswer = 0, pngBytes = 0, glbBytes = 0;
+  double seconds = 0.0;
+};
+
+struct ExportedAsset {
+  std::string glb;
+  ExportReport report;
+};
+
+// m (in the APO's local frame) with a normal map filled from the APO's
+// filtered lookup (m's interpolated normal deciding the sides of two-sided
+// leaves, as in the shader); `origin`: the scan's local frame origin, in the
+// asset's extras (file coordinates = origin + glTF coordinates).
+Result<ExportedAsset> exportApoGlb(const Scan& coarse, const ApoTexture& apo, const ExportOptions& options,
+                                   const std::array<double, 3>& origin, const std::string& generator);
+// The manifest's results.export (docs/export.md).
+std::string exportReportJson(const ExportReport& report);
 
 // The GLB (glTF 2.0 binary): one mesh, one node, a metallic-roughness
 // material whose normalTexture is `normalPng` (TEXCOORD_0, linear filtering

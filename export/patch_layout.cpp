@@ -102,8 +102,10 @@ Result<PatchAtlas> packTrianglePatches(const Scan& coarse, std::uint32_t width, 
   // The density never exceeds the one at which the triangles alone fill the map.
   float low = 0.0f, high = static_cast<float>(std::sqrt(static_cast<double>(width) * height / area));
   std::optional<Placement> best = shelve(flats, order, low, gutter, width, height);
-  if (!best) return badInput("m's {} triangles do not fit a {} x {} normal map even as gutters alone", flats.size(), width,
-                             height);
+  if (!best)
+    return badInput("m's {} triangles do not fit a {} x {} normal map even as their gutters alone ({} texels each): give "
+                    "a larger --map-size or a smaller --gutter",
+                    flats.size(), width, height, 4 * gutter * gutter);
   for (int step = 0; step < 40; ++step) {
     const float middle = 0.5f * (low + high);
     if (std::optional<Placement> placed = shelve(flats, order, middle, gutter, width, height)) {

@@ -53,6 +53,10 @@ Json renderJson(const RenderOptions& o) {
           {"frames", o.timedFrames}};
 }
 
+Json exportJson(const ExportOptions& o) {
+  return {{"no-export", !o.enabled}, {"map-size", o.mapSize}, {"gutter", o.gutter}};
+}
+
 }  // namespace
 
 std::string detailSourceName(DetailSource source) {
@@ -69,7 +73,8 @@ Status validateRunOptions(const RunOptions& options) {
   APO_RETURN_IF_ERROR(validateReconstructOptions(options.reconstruct));
   APO_RETURN_IF_ERROR(validateSimplifyOptions(options.simplify));
   APO_RETURN_IF_ERROR(validateBakeOptions(options.bake));
-  return validateRenderOptions(options.render);
+  APO_RETURN_IF_ERROR(validateRenderOptions(options.render));
+  return validateExportOptions(options.exporting);
 }
 
 nlohmann::ordered_json optionsJson(const RunOptions& options) {
@@ -79,7 +84,8 @@ nlohmann::ordered_json optionsJson(const RunOptions& options) {
           {"reconstruct", reconstructJson(options.reconstruct)},
           {"simplify", simplifyJson(options.simplify)},
           {"bake", bakeJson(options.bake)},
-          {"render", renderJson(options.render)}};
+          {"render", renderJson(options.render)},
+          {"export", exportJson(options.exporting)}};
 }
 
 }  // namespace apo

@@ -13,6 +13,7 @@
 #include "pipeline/progress.h"
 #include "reconstruct/reconstruct.h"
 #include "render/render.h"
+#include "export/export.h"
 
 #include <nlohmann/json.hpp>
 
@@ -31,7 +32,7 @@ inline constexpr int kManifestFormatVersion = 2;
 inline constexpr const char* kRenderFolder = "render";
 
 // A run's stages, in order, as the manifest and the progress lines name them.
-inline constexpr std::array<const char*, 6> kRunStages = {"ingest", "reconstruct", "simplify", "bake", "render", "report"};
+inline constexpr std::array<const char*, 7> kRunStages = {"ingest", "reconstruct", "simplify", "bake", "render", "export", "report"};
 inline constexpr std::size_t kRunStageCount = kRunStages.size();
 
 // What the APO is baked from. Mesh: the dense mesh M (reconstructed, or the
@@ -66,6 +67,7 @@ struct RunOptions {
   SimplifyOptions simplify;
   BakeOptions bake;
   RenderOptions render = reportRenderOptions();
+  ExportOptions exporting;
 };
 
 // Every stage's options checked, so that a bad value fails before any stage

@@ -22,7 +22,7 @@ namespace fs = std::filesystem;
 namespace {
 
 using Json = nlohmann::ordered_json;
-enum StageIndex : std::size_t { kIngest, kReconstruct, kSimplify, kBake, kRender, kReport };
+enum StageIndex : std::size_t { kIngest, kReconstruct, kSimplify, kBake, kRender, kExport, kReport };
 
 // What the stages hand to one another.
 struct PipelineData {
@@ -52,6 +52,10 @@ class Run {
     APO_RETURN_IF_ERROR(stage(kSimplify, [&] { return simplify(); }));
     APO_RETURN_IF_ERROR(stage(kBake, [&] { return bake(); }));
     APO_RETURN_IF_ERROR(stage(kRender, [&] { return render(); }));
+    if (settings_.options.exporting.enabled)
+      APO_RETURN_IF_ERROR(stage(kExport, [&] { return exportAsset(); }));
+    else
+      skip(kExport);
     APO_RETURN_IF_ERROR(stage(kReport, [&] { return report(); }));
     manifest_["status"] = "succeeded";
     return save();
@@ -259,6 +263,18 @@ class Run {
       manifest_["results"]["render"]["against_scan"]["seconds"] = judging.seconds();
     }
     addFile("renders", kRenderFolder);
+    return okStatus();
+  }
+
+  // m and the APO as a GLB (docs/export.md), in the local frame whose
+  // origin the asset's extras record.
+  Status exportAsset() {
+    auto asset = exportApoGlb(data_.coarse, data_.texture, settings_.options.exporting, data_.scan.origin,
+                              fmt::format("apo {}", manifest_["tool"]["version"].get<std::string>()));
+    if (!asset) return aboutInput(settings_.input, asset.error());
+    APO_RETURN_IF_ERROR(writeFileAtomically(settings_.outDir / "asset.glb", asset->glb));
+    addFile("glb", "asset.glb");
+    manifest_["results"]["export"] = Json::parse(exportReportJson(asset->report));
     return okStatus();
   }
 

@@ -94,6 +94,8 @@ std::string seconds(std::optional<double> s) {
   return *s < 10.0 ? fmt::format("{:.2f} s", *s) : fmt::format("{:.1f} s", *s);
 }
 
+std::string percentText(std::optional<double> share) { return share ? fmt::format("{:.0f}%", 100.0 * *share) : kNone; }
+
 std::string ratioText(double ratio) { return ratio < 10.0 ? fmt::format("{:.1f}", ratio) : fmt::format("{:.0f}", ratio); }
 
 // ---- Manifest figures used by both pages ----------------------------------------
@@ -529,6 +531,15 @@ std::string verdict(const Json& manifest) {
                         "normal map.</p>\n",
                         bytesText(textureBytes), count(numberAt(bake, {"texture", "width"})),
                         count(numberAt(bake, {"texture", "height"})), fixed(*textureBytes / kNormalMapBytes, 2));
+  }
+  const Json* exported = results(manifest, "export");
+  if (const std::optional<double> glbBytes = numberAt(exported, {"glb_bytes"})) {
+    html += fmt::format("<p>The glTF asset <a href=\"{}\">{}</a> ({}) carries m with a {} &times; {} tangent-space normal "
+                        "map made from the APO, one patch per triangle ({} of the texels), for any glTF 2.0 viewer.</p>\n",
+                        htmlEscape(urlPathEscape(textAt(&manifest, {"files", "glb"}).value_or("asset.glb"))),
+                        escaped(textAt(&manifest, {"files", "glb"})), bytesText(glbBytes),
+                        count(numberAt(exported, {"map", "width"})), count(numberAt(exported, {"map", "height"})),
+                        percentText(numberAt(exported, {"used_share"})));
   }
   const std::optional<double> dense = denseTriangles(manifest), coarse = coarseTriangles(manifest);
   if (dense && coarse && *coarse > 0.0)

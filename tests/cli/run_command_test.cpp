@@ -20,7 +20,7 @@ using ::testing::HasSubstr;
 using ::testing::Not;
 
 // Small, quick settings: every stage runs in well under a second.
-constexpr const char* kQuick = "--faces 300 --size 64 --views 2 --frames 1";
+constexpr const char* kQuick = "--faces 300 --size 64 --views 2 --frames 1 --map-size 128";
 
 nlohmann::json readJson(const fs::path& path) {
   std::ifstream in(path);
@@ -56,7 +56,8 @@ TEST(RunCommand, AMeshScanGoesThroughEveryStageIntoOneFolder) {
   EXPECT_EQ(manifest["status"], "succeeded");
   EXPECT_EQ(manifest["input"]["sha256"], *sha256OfFile(scan));
   EXPECT_EQ(manifest["input"]["bytes"], fs::file_size(scan));
-  const std::vector<std::string> expected = {"succeeded", "skipped", "succeeded", "succeeded", "succeeded", "succeeded"};
+  const std::vector<std::string> expected = {"succeeded", "skipped", "succeeded", "succeeded",
+                                             "succeeded", "succeeded", "succeeded"};
   ASSERT_EQ(manifest["stages"].size(), expected.size());
   for (std::size_t i = 0; i < expected.size(); ++i) {
     EXPECT_EQ(manifest["stages"][i]["status"], expected[i]) << manifest["stages"][i]["name"];
@@ -67,6 +68,14 @@ TEST(RunCommand, AMeshScanGoesThroughEveryStageIntoOneFolder) {
   EXPECT_EQ(manifest["format_version"], 2);
   EXPECT_EQ(manifest["options"]["simplify"]["faces"], 300);
   EXPECT_EQ(manifest["options"]["render"]["size"], 64);
+  // The export stage: the GLB, its figures, its options.
+  EXPECT_EQ(manifest["options"]["export"]["map-size"], 128);
+  EXPECT_EQ(manifest["options"]["export"]["no-export"], false);
+  EXPECT_EQ(manifest["files"]["glb"], "asset.glb");
+  EXPECT_TRUE(fs::is_regular_file(dir / "out" / "asset.glb"));
+  EXPECT_EQ(manifest["results"]["export"]["map"]["width"], 128);
+  EXPECT_EQ(manifest["results"]["export"]["triangles"], 300);
+  EXPECT_EQ(manifest["results"]["export"]["glb_bytes"], fs::file_size(dir / "out" / "asset.glb"));
   EXPECT_EQ(manifest["options"]["bake"]["budget"], 3u << 20);  // defaults are recorded too
   EXPECT_EQ(manifest["options"]["bake"]["error"], 0.0);
   EXPECT_EQ(manifest["options"]["bake"]["normal-encoding"], "oct24");
@@ -216,6 +225,23 @@ TEST(RunCommand, AGeoreferencedScanGivesTheSameAssetAsTheScanAtZero) {
   const std::string keptM = fileBytes(dir / "kept" / "m.ply");
   EXPECT_THAT(keptM, HasSubstr("property double x"));
   EXPECT_THAT(keptM, Not(HasSubstr("apo_origin")));
+  // The GLB: the same asset in the local frame, the origin in its extras;
+  // `apo export` of the run whose m.ply is in world coordinates gives the
+  // stage's bytes.
+  const std::string farGlb = fileBytes(dir / "far" / "asset.glb");
+  EXPECT_THAT(farGlb, HasSubstr(R"("georeference":{"origin":[512000.0,5403000.0,300.0])"));
+  // The binary chunk (after the 20-byte header and the JSON chunk) is the same.
+  const auto binChunk = [](const std::string& glb) {
+    const std::size_t json = static_cast<unsigned char>(glb[12]) | static_cast<unsigned char>(glb[13]) << 8 |
+                             static_cast<std::size_t>(static_cast<unsigned char>(glb[14])) << 16;
+    return glb.substr(20 + json);
+  };
+  EXPECT_EQ(binChunk(farGlb), binChunk(fileBytes(dir / "near" / "asset.glb")));
+  const auto exported = apo(fmt::format("export '{}' -o '{}' --map-size 128", (dir / "kept").string(),
+                                        (dir / "kept.glb").string()));
+  ASSERT_EQ(exported.exitCode, 0) << exported.output;
+  EXPECT_EQ(fileBytes(dir / "kept.glb"), fileBytes(dir / "kept" / "asset.glb"));
+  EXPECT_EQ(fileBytes(dir / "kept.glb"), farGlb);
   const auto local = readScan(dir / "near" / "m.ply");
   const auto world = readScan(dir / "kept" / "m.ply");
   ASSERT_TRUE(local.ok() && world.ok());
@@ -233,8 +259,9 @@ TEST(RunCommand, ProgressIsLogLinesOffATerminalAndQuietSilencesThem) {
   const fs::path scan = writeMeshScan(dir / "sphere.ply");
   const auto logged = apo(fmt::format("run '{}' -o '{}' {}", scan.string(), (dir / "logged").string(), kQuick));
   ASSERT_EQ(logged.exitCode, 0) << logged.output;
-  for (const char* line : {"[1/6] ingest: started", "[2/6] reconstruct: skipped", "[3/6] simplify: 50%",
-                           "[4/6] bake: 60%", "[4/6] bake: 100%", "[5/6] render: 50%", "[6/6] report: started"})
+  for (const char* line : {"[1/7] ingest: started", "[2/7] reconstruct: skipped", "[3/7] simplify: 50%",
+                           "[4/7] bake: 60%", "[4/7] bake: 100%", "[5/7] render: 50%", "[6/7] export: started",
+                           "[7/7] report: started"})
     EXPECT_THAT(logged.output, HasSubstr(line));
   EXPECT_EQ(logged.output.find("\r"), std::string::npos);  // no live line redrawn in place
 
@@ -255,8 +282,8 @@ TEST(RunCommand, ProgressIsALiveLinePerStageOnATerminal) {
                                                  (dir / "out").string(), kQuick));
   ASSERT_EQ(live.exitCode, 0) << live.output;
   EXPECT_NE(live.output.find('\r'), std::string::npos);
-  EXPECT_THAT(live.output, HasSubstr("[2/6] reconstruct skipped"));
-  EXPECT_THAT(live.output, testing::ContainsRegex("\\[4/6\\] bake +[0-9.]+ s, peak [0-9]+ MiB"));
+  EXPECT_THAT(live.output, HasSubstr("[2/7] reconstruct skipped"));
+  EXPECT_THAT(live.output, testing::ContainsRegex("\\[4/7\\] bake +[0-9.]+ s, peak [0-9]+ MiB"));
   EXPECT_THAT(live.output, Not(HasSubstr("ingest: started")));  // not the log lines
 }
 

@@ -1,0 +1,81 @@
+// The export stage: m and the APO to a GLB, with its figures.
+#include "export/export.h"
+
+#include "core/image_io.h"
+#include "core/timing.h"
+
+#include <nlohmann/json.hpp>
+
+namespace apo {
+
+Status validateExportOptions(const ExportOptions& options) {
+  if (options.mapSize < 16 || options.mapSize > 16384)
+    return usageError("--map-size must be 16 to 16384 texels (got {})", options.mapSize);
+  if (options.gutter < 1 || options.gutter > 8) return usageError("--gutter must be 1 to 8 texels (got {})", options.gutter);
+  return okStatus();
+}
+
+namespace {
+
+std::string extrasJson(const ExportReport& report, const std::array<double, 3>& origin) {
+  nlohmann::ordered_json extras;
+  extras["apo"] = {{"layout", "patches"},
+                   {"source", "apo"},
+                   {"map", {report.mapWidth, report.mapHeight}},
+                   {"gutter", report.gutter},
+                   {"texels_per_unit", report.texelsPerUnit},
+                   {"used_share", report.usedShare}};
+  extras["georeference"] = {{"origin", origin}, {"meaning", "scan file coordinates = origin + glTF coordinates"}};
+  return extras.dump();
+}
+
+}  // namespace
+
+Result<ExportedAsset> exportApoGlb(const Scan& coarse, const ApoTexture& apo, const ExportOptions& options,
+                                   const std::array<double, 3>& origin, const std::string& generator) {
+  APO_RETURN_IF_ERROR(validateExportOptions(options));
+  if (!coarse.isMesh()) return badInput("m has no triangles to export");
+  const Stopwatch stopwatch;
+  auto atlas = packTrianglePatches(coarse, options.mapSize, options.mapSize, options.gutter);
+  if (!atlas) return atlas.error();
+  const GltfMesh mesh = patchMesh(coarse, *atlas);
+  const NormalMap map = bakeTangentNormalMap(mesh, *atlas, [&apo](const Vec3f& point, const Vec3f& coarseNormal) {
+    const Lookup found = lookupTextureFiltered(apo, apo.transform.toUnit(point), coarseNormal);
+    return found.found ? found.normal : Vec3f::Zero();
+  });
+  auto png = encodePng8(map.width, map.height, 3, map.rgb);
+  if (!png) return png.error();
+  ExportedAsset asset;
+  ExportReport& r = asset.report;
+  r.mapWidth = map.width;
+  r.mapHeight = map.height;
+  r.gutter = atlas->gutter;
+  r.texelsPerUnit = atlas->texelsPerUnit;
+  r.usedShare = atlas->usedShare;
+  r.triangles = coarse.triangles.size();
+  r.texelsFilled = map.texelsFilled;
+  r.texelsWithoutAnswer = map.texelsWithoutAnswer;
+  r.pngBytes = png->size();
+  asset.glb = glbBytes(mesh, *png, generator, extrasJson(r, origin));
+  r.glbBytes = asset.glb.size();
+  r.seconds = stopwatch.seconds();
+  return asset;
+}
+
+std::string exportReportJson(const ExportReport& r) {
+  nlohmann::ordered_json json;
+  json["format_version"] = 1;
+  json["layout"] = "patches";
+  json["source"] = "apo";
+  json["map"] = {{"width", r.mapWidth}, {"height", r.mapHeight}, {"gutter", r.gutter}, {"png_bytes", r.pngBytes}};
+  json["texels_per_unit"] = r.texelsPerUnit;
+  json["used_share"] = r.usedShare;
+  json["triangles"] = r.triangles;
+  json["texels_filled"] = r.texelsFilled;
+  json["texels_without_answer"] = r.texelsWithoutAnswer;
+  json["glb_bytes"] = r.glbBytes;
+  json["seconds"] = r.seconds;
+  return json.dump();
+}
+
+}  // namespace apo
