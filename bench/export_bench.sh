@@ -50,3 +50,10 @@ print('%.0f%%' % (100 * json.loads(b[20:20 + n])['asset']['extras']['apo']['used
     echo "| GLB, ${size}^2, gutter $gutter | $(stat -c %s "$glb") | $share | $seconds | $(stats "$glb.json") |"
   done
 done
+# The same patches filled straight from M (--source detail): what the APO costs.
+for size in 1024 2048; do
+  glb="$out/detail_${size}.glb"
+  run $apo -q export "$out/run" -o "$glb" --map-size $size --source detail --detail "$mesh"
+  eval_with "$glb" "/usr/bin/python3 $tools/glb_lookup.py {apo} {points} {out}" "$glb.json"
+  echo "| GLB from M itself (--source detail), ${size}^2, gutter 2 | $(stat -c %s "$glb") | | | $(stats "$glb.json") |"
+done

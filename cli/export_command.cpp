@@ -6,6 +6,7 @@
 #include "export/export.h"
 #include "format/format.h"
 #include "ingest/ingest.h"
+#include "pipeline/bake_seams.h"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -21,6 +22,8 @@ namespace {
 struct ExportCommand {
   fs::path runDir, output;
   ExportOptions options;
+  std::string source = "apo";
+  fs::path detail;  // M for --source detail; default: RUNDIR/M.ply, else the run's input mesh
 };
 
 // The run's manifest, which must say the run succeeded.
@@ -49,6 +52,49 @@ std::array<double, 3> originOf(const nlohmann::json& manifest) {
   return {origin[0].get<double>(), origin[1].get<double>(), origin[2].get<double>()};
 }
 
+// A mesh file is local (its header names the origin) or in world
+// coordinates (--keep-georeference), which the reader brings near zero by an
+// origin of its own: either way, into the run's frame, in double.
+void toRunFrame(Scan& scan, const std::array<double, 3>& origin) {
+  const Eigen::Vector3d shift(scan.origin[0] - origin[0], scan.origin[1] - origin[1], scan.origin[2] - origin[2]);
+  for (Vec3f& p : scan.points.positions) p = (p.cast<double>() + shift).cast<float>();
+  scan.origin = origin;
+}
+
+// M for --source detail: --detail, else the run's M.ply (point scans), else
+// the run's input (a mesh scan is its own M).
+fs::path detailPath(const ExportCommand& command, const nlohmann::json& manifest) {
+  if (!command.detail.empty()) return command.detail;
+  if (fs::exists(command.runDir / "M.ply")) return command.runDir / "M.ply";
+  const auto input = manifest.find("input");
+  if (input != manifest.end() && input->is_object() && (*input)["path"].is_string())
+    return fs::path((*input)["path"].get<std::string>());
+  return command.runDir / "M.ply";
+}
+
+Result<std::unique_ptr<ClosestPointFinder>> detailClosestPoint(const ExportCommand& command, const nlohmann::json& manifest,
+                                                               const std::array<double, 3>& origin) {
+  const fs::path path = detailPath(command, manifest);
+  auto detail = readScan(path);
+  if (!detail) return detail.error();
+  if (!detail->isMesh())
+    return badInput("{}: --source detail needs M as a triangle mesh; the file has only points", path.string());
+  toRunFrame(*detail, origin);
+  auto finder = meshClosestPoint(*detail);
+  if (!finder) return aboutInput(path, finder.error());
+  return finder;
+}
+
+// M's interpolated normal at its closest point to each point of m (the
+// truth of ../shared/tools/normal_eval.py): the best a map of this layout
+// can show, against which the APO's own loss is measured.
+NormalField detailNormalField(const ClosestPointFinder& detail) {
+  return [&detail](const Vec3f& point, const Vec3f&) {
+    const std::optional<SurfacePoint> found = detail.closest(point);
+    return found ? found->normal : Vec3f::Zero();
+  };
+}
+
 int runExport(const ExportCommand& command) {
   if (Status valid = validateExportOptions(command.options); !valid.ok()) return reportFailure(valid.error());
   auto manifest = finishedManifest(command.runDir);
@@ -58,13 +104,16 @@ int runExport(const ExportCommand& command) {
   const fs::path coarsePath = command.runDir / "m.ply";
   auto coarse = readScan(coarsePath);
   if (!coarse) return reportFailure(coarse.error());
-  // m.ply is local (its header names the origin) or in world coordinates
-  // (--keep-georeference), which the reader brings near zero by an origin
-  // of its own: either way, into the run's frame, in double.
   const std::array<double, 3> origin = originOf(*manifest);
-  const Eigen::Vector3d shift(coarse->origin[0] - origin[0], coarse->origin[1] - origin[1], coarse->origin[2] - origin[2]);
-  for (Vec3f& p : coarse->points.positions) p = (p.cast<double>() + shift).cast<float>();
-  auto asset = exportApoGlb(*coarse, *texture, command.options, origin, fmt::format("apo {}", APO_VERSION));
+  toRunFrame(*coarse, origin);
+  std::unique_ptr<ClosestPointFinder> detail;
+  if (command.source == "detail") {
+    auto found = detailClosestPoint(command, *manifest, origin);
+    if (!found) return reportFailure(found.error());
+    detail = std::move(*found);
+  }
+  const NormalField field = detail ? detailNormalField(*detail) : apoNormalField(*texture);
+  auto asset = exportGlb(*coarse, field, command.source, command.options, origin, fmt::format("apo {}", APO_VERSION));
   if (!asset) return reportFailure(aboutInput(coarsePath, asset.error()));
   if (Status s = writeFileAtomically(command.output, asset->glb); !s.ok()) return reportFailure(s.error());
   const ExportReport& r = asset->report;
@@ -83,6 +132,13 @@ void addExportCommand(CLI::App& app, int& exitCode) {
   sub->add_option("rundir", command->runDir, "The folder of a finished apo run (manifest.json, m.ply, scan.apo)")->required();
   sub->add_option("-o,--out", command->output, "The GLB file to write")->required();
   addExportOptions(*sub, command->options);
+  sub->add_option("--source", command->source,
+                  "Fill the map from the APO's filtered lookup (apo), or straight from M's normal at its closest point "
+                  "(detail: to measure what the APO costs)")
+      ->check(CLI::IsMember({"apo", "detail"}))
+      ->capture_default_str();
+  sub->add_option("--detail", command->detail,
+                  "M for --source detail (default: RUNDIR/M.ply, else the run's input mesh)");
   sub->callback([command, &exitCode] { exitCode = guarded([&] { return runExport(*command); }); });
 }
 

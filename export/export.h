@@ -82,6 +82,7 @@ struct ExportOptions {
 Status validateExportOptions(const ExportOptions& options);
 
 struct ExportReport {
+  std::string source;  // "apo" or "detail"
   std::uint32_t mapWidth = 0, mapHeight = 0;
   int gutter = 0;
   float texelsPerUnit = 0.0f;
@@ -95,12 +96,18 @@ struct ExportedAsset {
   ExportReport report;
 };
 
-// m (in the APO's local frame) with a normal map filled from the APO's
-// filtered lookup (m's interpolated normal deciding the sides of two-sided
-// leaves, as in the shader); `origin`: the scan's local frame origin, in the
-// asset's extras (file coordinates = origin + glTF coordinates).
-Result<ExportedAsset> exportApoGlb(const Scan& coarse, const ApoTexture& apo, const ExportOptions& options,
-                                   const std::array<double, 3>& origin, const std::string& generator);
+// The APO's filtered lookup as a field (m's interpolated normal choosing
+// the side of two-sided leaves and answering where nodes show m, as in the
+// shader); no answer outside the octree.
+NormalField apoNormalField(const ApoTexture& apo);
+
+// m (in the field's frame) with a normal map filled from `field`; `source`
+// names it in the report and the asset ("apo", or "detail" for M itself);
+// `origin`: the scan's local frame origin, in the asset's extras (file
+// coordinates = origin + glTF coordinates).
+Result<ExportedAsset> exportGlb(const Scan& coarse, const NormalField& field, const std::string& source,
+                                const ExportOptions& options, const std::array<double, 3>& origin,
+                                const std::string& generator);
 // The manifest's results.export (docs/export.md).
 std::string exportReportJson(const ExportReport& report);
 

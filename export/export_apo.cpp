@@ -1,4 +1,5 @@
-// The export stage: m and the APO to a GLB, with its figures.
+// The export stage: m and a normal field (the APO's, or M's) to a GLB, with
+// its figures.
 #include "export/export.h"
 
 #include "core/image_io.h"
@@ -20,7 +21,7 @@ namespace {
 std::string extrasJson(const ExportReport& report, const std::array<double, 3>& origin) {
   nlohmann::ordered_json extras;
   extras["apo"] = {{"layout", "patches"},
-                   {"source", "apo"},
+                   {"source", report.source},
                    {"map", {report.mapWidth, report.mapHeight}},
                    {"gutter", report.gutter},
                    {"texels_per_unit", report.texelsPerUnit},
@@ -31,22 +32,28 @@ std::string extrasJson(const ExportReport& report, const std::array<double, 3>& 
 
 }  // namespace
 
-Result<ExportedAsset> exportApoGlb(const Scan& coarse, const ApoTexture& apo, const ExportOptions& options,
-                                   const std::array<double, 3>& origin, const std::string& generator) {
+NormalField apoNormalField(const ApoTexture& apo) {
+  return [&apo](const Vec3f& point, const Vec3f& coarseNormal) {
+    const Lookup found = lookupTextureFiltered(apo, apo.transform.toUnit(point), coarseNormal);
+    return found.found ? found.normal : Vec3f::Zero();
+  };
+}
+
+Result<ExportedAsset> exportGlb(const Scan& coarse, const NormalField& field, const std::string& source,
+                                const ExportOptions& options, const std::array<double, 3>& origin,
+                                const std::string& generator) {
   APO_RETURN_IF_ERROR(validateExportOptions(options));
   if (!coarse.isMesh()) return badInput("m has no triangles to export");
   const Stopwatch stopwatch;
   auto atlas = packTrianglePatches(coarse, options.mapSize, options.mapSize, options.gutter);
   if (!atlas) return atlas.error();
   const GltfMesh mesh = patchMesh(coarse, *atlas);
-  const NormalMap map = bakeTangentNormalMap(mesh, *atlas, [&apo](const Vec3f& point, const Vec3f& coarseNormal) {
-    const Lookup found = lookupTextureFiltered(apo, apo.transform.toUnit(point), coarseNormal);
-    return found.found ? found.normal : Vec3f::Zero();
-  });
+  const NormalMap map = bakeTangentNormalMap(mesh, *atlas, field);
   auto png = encodePng8(map.width, map.height, 3, map.rgb);
   if (!png) return png.error();
   ExportedAsset asset;
   ExportReport& r = asset.report;
+  r.source = source;
   r.mapWidth = map.width;
   r.mapHeight = map.height;
   r.gutter = atlas->gutter;
@@ -66,7 +73,7 @@ std::string exportReportJson(const ExportReport& r) {
   nlohmann::ordered_json json;
   json["format_version"] = 1;
   json["layout"] = "patches";
-  json["source"] = "apo";
+  json["source"] = r.source;
   json["map"] = {{"width", r.mapWidth}, {"height", r.mapHeight}, {"gutter", r.gutter}, {"png_bytes", r.pngBytes}};
   json["texels_per_unit"] = r.texelsPerUnit;
   json["used_share"] = r.usedShare;

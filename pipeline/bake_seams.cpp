@@ -69,12 +69,18 @@ Result<Bake> bakeApo(const Scan& detail, const Scan& coarse, const BakeOptions& 
   return bake;
 }
 
+Result<std::unique_ptr<ClosestPointFinder>> meshClosestPoint(const Scan& mesh) {
+  if (!mesh.isMesh()) return badInput("a closest point with its normal needs a triangle mesh, not points");
+  Scan withNormals = mesh;
+  if (withNormals.points.normals.size() != withNormals.points.size())
+    withNormals.points.normals = areaWeightedVertexNormals(withNormals);
+  return makeEmbreeClosestPoint(withNormals);
+}
+
 Result<std::vector<Vec3f>> coarseNormalsAt(const Scan& coarse, const std::vector<Vec3f>& points) {
-  Scan m = coarse;
-  if (m.points.normals.size() != m.points.size()) m.points.normals = areaWeightedVertexNormals(m);
   // Exact (Embree's point query): across a part thinner than m's triangles,
   // the nearest vertices may lie on the other side.
-  auto closest = makeEmbreeClosestPoint(m);
+  auto closest = meshClosestPoint(coarse);
   if (!closest) return closest.error();
   std::vector<Vec3f> normals(points.size());
   for (std::size_t i = 0; i < points.size(); ++i) {

@@ -5,6 +5,9 @@
 #pragma once
 
 #include "bake/bake.h"
+#include "core/closest_point.h"
+
+#include <memory>
 
 namespace apo {
 
@@ -21,5 +24,11 @@ Result<Bake> bakeApo(const Scan& detail, const Scan& coarse, const BakeOptions& 
 // each point: what a leaf of a version 3 APO that shows m's normal answers
 // there (`apo lookup --coarse`). The exact closest point (Embree).
 Result<std::vector<Vec3f>> coarseNormalsAt(const Scan& coarse, const std::vector<Vec3f>& points);
+
+// A mesh's exact closest point (Embree's point query) with its interpolated
+// vertex normal there (the file's normals, else area-weighted ones): M as a
+// normal field for `apo export --source detail`, the truth of
+// ../shared/tools/normal_eval.py. BadInput when `mesh` has no triangles.
+Result<std::unique_ptr<ClosestPointFinder>> meshClosestPoint(const Scan& mesh);
 
 }  // namespace apo

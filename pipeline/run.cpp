@@ -269,8 +269,8 @@ class Run {
   // m and the APO as a GLB (docs/export.md), in the local frame whose
   // origin the asset's extras record.
   Status exportAsset() {
-    auto asset = exportApoGlb(data_.coarse, data_.texture, settings_.options.exporting, data_.scan.origin,
-                              fmt::format("apo {}", manifest_["tool"]["version"].get<std::string>()));
+    auto asset = exportGlb(data_.coarse, apoNormalField(data_.texture), "apo", settings_.options.exporting,
+                           data_.scan.origin, fmt::format("apo {}", manifest_["tool"]["version"].get<std::string>()));
     if (!asset) return aboutInput(settings_.input, asset.error());
     APO_RETURN_IF_ERROR(writeFileAtomically(settings_.outDir / "asset.glb", asset->glb));
     addFile("glb", "asset.glb");

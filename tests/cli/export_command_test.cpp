@@ -70,6 +70,30 @@ TEST_F(ExportCommand, AFinishedRunBecomesAGlbTheKhronosValidatorAccepts) {
   EXPECT_EQ(*readFileBytes(again), *readFileBytes(glb));
 }
 
+// --source detail: the map filled from M itself (the run's input mesh here),
+// named so in the asset; M as points is refused, naming the file.
+TEST_F(ExportCommand, TheMapCanBeFilledFromMItself) {
+  const fs::path glb = *dir_ / "detail.glb";
+  const auto result = apo(fmt::format("export '{}' -o '{}' --map-size 256 --source detail", (*dir_ / "run").string(),
+                                      glb.string()));
+  ASSERT_EQ(result.exitCode, 0) << result.output;
+  EXPECT_THAT(*readFileBytes(glb), HasSubstr(R"("source":"detail")"));
+  const nlohmann::json report = khronosReport(glb);
+  EXPECT_EQ(report["errors"], 0) << report["messages"].dump();
+  EXPECT_EQ(report["warnings"], 0) << report["messages"].dump();
+  const fs::path fromApo = *dir_ / "from_apo.glb";
+  ASSERT_EQ(apo(fmt::format("export '{}' -o '{}' --map-size 256", (*dir_ / "run").string(), fromApo.string())).exitCode, 0);
+  EXPECT_NE(*readFileBytes(glb), *readFileBytes(fromApo));
+
+  Scan points = test::BumpySphere().mesh(3);
+  points.triangles.clear();
+  ASSERT_TRUE(writePly(*dir_ / "points.ply", points).ok());
+  const auto refused = apo(fmt::format("export '{}' -o '{}' --source detail --detail '{}'", (*dir_ / "run").string(),
+                                       (*dir_ / "refused.glb").string(), (*dir_ / "points.ply").string()));
+  EXPECT_EQ(refused.exitCode, 2);
+  EXPECT_THAT(refused.output, HasSubstr("points.ply: --source detail needs M as a triangle mesh"));
+}
+
 TEST_F(ExportCommand, UnfinishedRunsMissingAndCorruptFilesAreNamed) {
   const fs::path out = *dir_ / "bad.glb";
   const auto exportOf = [&](const fs::path& run) {
