@@ -142,7 +142,16 @@ std::string renderReportJson(const RenderFigures& figures, const RenderOptions& 
   nlohmann::ordered_json views = nlohmann::ordered_json::array();
   for (std::size_t i = 0; i < figures.views.size(); ++i) {
     nlohmann::ordered_json view = {{"index", i}};
-    if (i < cameras.size()) view["eye"] = {cameras[i].eye.x(), cameras[i].eye.y(), cameras[i].eye.z()};
+    if (i < cameras.size()) {
+      const Camera& c = cameras[i];
+      view["eye"] = {c.eye.x(), c.eye.y(), c.eye.z()};
+      // The whole camera, so that other renderers can draw the same view.
+      view["camera"] = {{"target", {c.target.x(), c.target.y(), c.target.z()}},
+                        {"up", {c.up.x(), c.up.y(), c.up.z()}},
+                        {"fov_y_degrees", c.fovYDegrees},
+                        {"near", c.nearPlane},
+                        {"far", c.farPlane}};
+    }
     view["apo"] = passJson(figures.views[i].apo);
     view["baseline"] = passJson(figures.views[i].baseline);
     view["cost"] = costJson(figures.views[i].cost);
