@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 
 namespace apo {
@@ -47,29 +48,108 @@ FlatTriangle flatten(const Vec3f& a, const Vec3f& b, const Vec3f& c) {
 }
 
 struct Placement {
-  std::vector<Vec2f> origins;  // per triangle, the texel where its flat origin goes
+  std::vector<std::array<Vec2f, 3>> corners;  // per triangle, in texels
   double usedShare = 0.0;
 };
 
-// Shelves, tallest patches first: each patch takes ceil(size * density) + 2
-// gutters texels each way. Empty when they do not all fit.
+// The texel columns a triangle claims in one row: those whose centres may lie
+// within `gutter` of it (the triangle within gutter of the row's centre line
+// vertically, then gutter either way: a square round each point, which holds
+// the disc the fill uses). Empty (first > last) where none.
+std::pair<long, long> claimedColumns(const std::array<Vec2f, 3>& t, long row, float gutter) {
+  const float centre = static_cast<float>(row) + 0.5f, low = centre - gutter, high = centre + gutter;
+  float xmin = std::numeric_limits<float>::max(), xmax = std::numeric_limits<float>::lowest();
+  for (int k = 0; k < 3; ++k) {
+    const Vec2f& a = t[static_cast<std::size_t>(k)];
+    const Vec2f& b = t[static_cast<std::size_t>((k + 1) % 3)];
+    // The part of edge ab within the band [low, high].
+    const float ya = a.y(), yb = b.y();
+    if (std::max(ya, yb) < low || std::min(ya, yb) > high) continue;
+    const auto xAt = [&](float y) { return ya == yb ? a.x() : a.x() + (b.x() - a.x()) * (y - ya) / (yb - ya); };
+    const float from = std::clamp(std::min(ya, yb), low, high), to = std::clamp(std::max(ya, yb), low, high);
+    for (const float y : {from, to}) {
+      const float x = ya == yb ? std::min(a.x(), b.x()) : xAt(y);
+      const float x2 = ya == yb ? std::max(a.x(), b.x()) : x;
+      xmin = std::min(xmin, x);
+      xmax = std::max(xmax, x2);
+    }
+  }
+  if (xmin > xmax) return {1, 0};
+  return {static_cast<long>(std::ceil(xmin - gutter - 0.5f)), static_cast<long>(std::floor(xmax + gutter - 0.5f))};
+}
+
+// The triangle in a shelf of `rows` rows from row `top`: its longest edge
+// along the shelf's top, apex below ("down"), or turned half a turn, edge
+// along the shelf's bottom ("up"); x from 0. A rotation, never a mirror.
+std::array<Vec2f, 3> inShelf(const FlatTriangle& flat, float density, bool up, float top, float rows, float gutter) {
+  std::array<Vec2f, 3> corners{Vec2f::Zero(), Vec2f::Zero(), Vec2f::Zero()};
+  const float w = flat.width * density;
+  for (std::size_t k = 0; k < 3; ++k) {
+    const Vec2f local = flat.at[k] * density;
+    corners[k] = up ? Vec2f(w - local.x(), top + rows - gutter - 0.5f - local.y())
+                    : Vec2f(local.x(), top + gutter + 0.5f + local.y());
+  }
+  return corners;
+}
+
+// Shelves, tallest patches first; within a shelf each patch slides left
+// until its claimed texels meet the shelf's, turned edge-down or edge-up,
+// whichever ends further left, so that neighbours interlock (paper section 4
+// packs shapes, not boxes). Empty when they do not all fit.
 std::optional<Placement> shelve(const std::vector<FlatTriangle>& flats, const std::vector<std::size_t>& order,
                                 float density, int gutter, std::uint32_t width, std::uint32_t height) {
   Placement placement;
-  placement.origins.assign(flats.size(), Vec2f::Zero());
-  std::uint64_t x = 0, y = 0, shelfHeight = 0;
+  placement.corners.assign(flats.size(), {Vec2f::Zero(), Vec2f::Zero(), Vec2f::Zero()});
+  const auto g = static_cast<float>(gutter);
+  long top = 0, rows = 0;
+  std::vector<long> frontier;  // per row of the shelf: the rightmost claimed column
   double area = 0.0;
-  for (std::size_t i : order) {
-    const auto w = static_cast<std::uint64_t>(std::ceil(flats[i].width * density)) + 2 * static_cast<std::uint64_t>(gutter);
-    const auto h = static_cast<std::uint64_t>(std::ceil(flats[i].height * density)) + 2 * static_cast<std::uint64_t>(gutter);
-    if (w > width) return std::nullopt;
-    if (x + w > width) x = 0, y += shelfHeight, shelfHeight = 0;
-    if (y + h > height) return std::nullopt;
-    placement.origins[i] = Vec2f(static_cast<float>(x + static_cast<std::uint64_t>(gutter)),
-                                 static_cast<float>(y + static_cast<std::uint64_t>(gutter)));
-    shelfHeight = std::max(shelfHeight, h);
-    x += w;
-    area += 0.5 * static_cast<double>(flats[i].width) * flats[i].height * density * density;
+  const auto openShelf = [&](const FlatTriangle& first) {
+    top += rows;
+    rows = static_cast<long>(std::ceil(first.height * density + 2.0f * g + 1.0f));
+    frontier.assign(static_cast<std::size_t>(rows), -1);
+  };
+  const auto claims = [&](const std::array<Vec2f, 3>& t) {
+    std::vector<std::pair<long, long>> columns(static_cast<std::size_t>(rows));
+    for (long r = 0; r < rows; ++r) columns[static_cast<std::size_t>(r)] = claimedColumns(t, top + r, g);
+    return columns;
+  };
+  // The shift that puts the patch right of the shelf's frontier, and the
+  // rightmost column it then claims.
+  const auto slide = [&](const std::vector<std::pair<long, long>>& columns) {
+    long shift = std::numeric_limits<long>::min(), right = std::numeric_limits<long>::min();
+    for (std::size_t r = 0; r < columns.size(); ++r)
+      if (columns[r].first <= columns[r].second) shift = std::max(shift, frontier[r] + 1 - columns[r].first);
+    for (const auto& [first, last] : columns)
+      if (first <= last) right = std::max(right, last + shift);
+    return std::pair{shift, right};
+  };
+  for (std::size_t n = 0; n < order.size(); ++n) {
+    const FlatTriangle& flat = flats[order[n]];
+    if (n == 0) openShelf(flat);
+    for (int attempt = 0; attempt < 2; ++attempt) {
+      std::array<Vec2f, 3> best{Vec2f::Zero(), Vec2f::Zero(), Vec2f::Zero()};
+      std::vector<std::pair<long, long>> bestColumns;
+      long bestShift = 0, bestRight = std::numeric_limits<long>::max();
+      for (const bool up : {false, true}) {
+        const std::array<Vec2f, 3> t = inShelf(flat, density, up, static_cast<float>(top), static_cast<float>(rows), g);
+        const auto columns = claims(t);
+        const auto [shift, right] = slide(columns);
+        if (right < bestRight) best = t, bestColumns = columns, bestShift = shift, bestRight = right;
+      }
+      if (bestRight < static_cast<long>(width)) {
+        if (top + rows > static_cast<long>(height)) return std::nullopt;
+        for (Vec2f& c : best) c.x() += static_cast<float>(bestShift);
+        for (std::size_t r = 0; r < bestColumns.size(); ++r)
+          if (bestColumns[r].first <= bestColumns[r].second)
+            frontier[r] = std::max(frontier[r], bestColumns[r].second + bestShift);
+        placement.corners[order[n]] = best;
+        break;
+      }
+      if (attempt == 1) return std::nullopt;  // wider than the map alone
+      openShelf(flat);
+    }
+    area += 0.5 * static_cast<double>(flat.width) * flat.height * density * density;
   }
   placement.usedShare = area / (static_cast<double>(width) * height);
   return placement;
@@ -121,12 +201,7 @@ Result<PatchAtlas> packTrianglePatches(const Scan& coarse, std::uint32_t width, 
   atlas.texelsPerUnit = low;
   atlas.gutter = gutter;
   atlas.usedShare = best->usedShare;
-  atlas.corners.reserve(flats.size());
-  for (std::size_t i = 0; i < flats.size(); ++i) {
-    std::array<Vec2f, 3> corners;
-    for (int k = 0; k < 3; ++k) corners[static_cast<std::size_t>(k)] = best->origins[i] + flats[i].at[static_cast<std::size_t>(k)] * low;
-    atlas.corners.push_back(corners);
-  }
+  atlas.corners = std::move(best->corners);
   return atlas;
 }
 

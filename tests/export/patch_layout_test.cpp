@@ -7,6 +7,9 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
+#include <vector>
 
 namespace apo {
 namespace {
@@ -30,6 +33,23 @@ Box boxOf(const std::array<Vec2f, 3>& c, float grow) {
   return {low.x() - grow, low.y() - grow, high.x() + grow, high.y() + grow};
 }
 
+// Distance from q to a 2D triangle (0 inside), by its three edges.
+float distanceToTriangle(const std::array<Vec2f, 3>& t, const Vec2f& q) {
+  const auto side = [&](int k) {
+    const Vec2f a = t[static_cast<std::size_t>(k)], b = t[static_cast<std::size_t>((k + 1) % 3)];
+    return (b - a).x() * (q - a).y() - (b - a).y() * (q - a).x();
+  };
+  const float s0 = side(0), s1 = side(1), s2 = side(2);
+  if ((s0 >= 0 && s1 >= 0 && s2 >= 0) || (s0 <= 0 && s1 <= 0 && s2 <= 0)) return 0.0f;
+  float best = std::numeric_limits<float>::max();
+  for (int k = 0; k < 3; ++k) {
+    const Vec2f a = t[static_cast<std::size_t>(k)], ab = t[static_cast<std::size_t>((k + 1) % 3)] - a;
+    const float s = ab.squaredNorm() > 0 ? std::clamp((q - a).dot(ab) / ab.squaredNorm(), 0.0f, 1.0f) : 0.0f;
+    best = std::min(best, (a + s * ab - q).norm());
+  }
+  return best;
+}
+
 TEST(PatchLayout, EveryTriangleIsLaidFlatUnshearedInsideTheMapApartFromTheOthers) {
   const Scan mesh = unevenSphere();
   const auto atlas = packTrianglePatches(mesh, 512, 256, 2);
@@ -47,31 +67,35 @@ TEST(PatchLayout, EveryTriangleIsLaidFlatUnshearedInsideTheMapApartFromTheOthers
       const float flat = (c[static_cast<std::size_t>((k + 1) % 3)] - c[static_cast<std::size_t>(k)]).norm();
       EXPECT_NEAR(flat, model, 1e-3f * model + 1e-4f) << "triangle " << f << " edge " << k;
     }
-    // Inside the map with its gutter.
-    const Box box = boxOf(c, 2.0f);
-    EXPECT_GE(box.x0, -1e-3f);
-    EXPECT_GE(box.y0, -1e-3f);
-    EXPECT_LE(box.x1, 512.0f + 1e-3f);
-    EXPECT_LE(box.y1, 256.0f + 1e-3f);
     const Vec2f e1 = c[1] - c[0], e2 = c[2] - c[0];
     area += 0.5 * std::abs(e1.x() * e2.y() - e2.x() * e1.y());
   }
-  // No two patches' gutters overlap (brute force over every pair).
-  std::uint64_t overlaps = 0;
-  for (std::size_t a = 0; a < atlas->corners.size(); ++a) {
-    const Box ba = boxOf(atlas->corners[a], 2.0f);
-    for (std::size_t b = a + 1; b < atlas->corners.size(); ++b) {
-      const Box bb = boxOf(atlas->corners[b], 2.0f);
-      overlaps += ba.x0 < bb.x1 - 1e-3f && bb.x0 < ba.x1 - 1e-3f && ba.y0 < bb.y1 - 1e-3f && bb.y0 < ba.y1 - 1e-3f ? 1 : 0;
-    }
+  // No texel is claimed by two patches: every texel whose centre lies within
+  // the gutter of a triangle (brute force, Euclidean, as the fill takes
+  // them) belongs to that triangle alone, and lies inside the map.
+  std::vector<int> owner(512 * 256, -1);
+  std::uint64_t shared = 0, outside = 0;
+  for (std::size_t f = 0; f < atlas->corners.size(); ++f) {
+    const Box box = boxOf(atlas->corners[f], 2.0f);
+    for (int y = static_cast<int>(std::floor(box.y0)) - 1; y <= static_cast<int>(std::ceil(box.y1)); ++y)
+      for (int x = static_cast<int>(std::floor(box.x0)) - 1; x <= static_cast<int>(std::ceil(box.x1)); ++x) {
+        if (distanceToTriangle(atlas->corners[f], Vec2f(x + 0.5f, y + 0.5f)) > 2.0f) continue;
+        if (x < 0 || y < 0 || x >= 512 || y >= 256) {
+          ++outside;
+          continue;
+        }
+        int& who = owner[static_cast<std::size_t>(y) * 512 + static_cast<std::size_t>(x)];
+        shared += who >= 0 ? 1 : 0;
+        who = static_cast<int>(f);
+      }
   }
-  EXPECT_EQ(overlaps, 0u);
+  EXPECT_EQ(shared, 0u);
+  EXPECT_EQ(outside, 0u);
   EXPECT_NEAR(atlas->usedShare, area / (512.0 * 256.0), 1e-3);
-  // Shelves of bounding boxes: a triangle fills at most half of its box;
-  // here the gutters (4 texels a side) cost as much again (patches of about
-  // 6 x 5 texels).
-  EXPECT_GT(atlas->usedShare, 0.1);
-  EXPECT_LT(atlas->usedShare, 0.5);
+  // Small patches (about 6 x 5 texels here) lose most of the map to their
+  // gutters (bunny00's 3,000 at 1024^2: 34%, docs/export.md).
+  EXPECT_GT(atlas->usedShare, 0.12);
+  EXPECT_LT(atlas->usedShare, 0.7);
 
   // The same layout every time.
   const auto again = packTrianglePatches(mesh, 512, 256, 2);
