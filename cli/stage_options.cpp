@@ -172,6 +172,7 @@ void addExportOptions(CLI::App& app, ExportOptions& options) {
   app.add_option("--gutter", options.gutter, "Texels kept free round each triangle's patch of the normal map")
       ->check(CLI::Range(1, 8))
       ->capture_default_str();
+  app.add_flag("--draco", options.draco, "Compress the GLB's mesh with Draco (KHR_draco_mesh_compression)");
 }
 
 void addStageOptionGroups(CLI::App& app, StageArguments& arguments) {

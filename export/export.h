@@ -77,6 +77,7 @@ struct ExportOptions {
   bool enabled = true;           // apo run / apo batch: --no-export skips the stage
   std::uint32_t mapSize = 1024;  // the normal map's texels per side (square)
   int gutter = 2;                // texels kept free round each patch
+  bool draco = false;            // the mesh compressed with Draco (KHR_draco_mesh_compression)
 };
 // Usage error naming the option: map size in [16, 16384], gutter in [1, 8].
 Status validateExportOptions(const ExportOptions& options);
@@ -88,6 +89,7 @@ struct ExportReport {
   float texelsPerUnit = 0.0f;
   double usedShare = 0.0;
   std::uint64_t triangles = 0, texelsFilled = 0, texelsWithoutAnswer = 0, pngBytes = 0, glbBytes = 0;
+  bool draco = false;
   double seconds = 0.0;
 };
 
@@ -111,11 +113,25 @@ Result<ExportedAsset> exportGlb(const Scan& coarse, const NormalField& field, co
 // The manifest's results.export (docs/export.md).
 std::string exportReportJson(const ExportReport& report);
 
+// A primitive compressed with Draco (KHR_draco_mesh_compression): the bytes,
+// each attribute's Draco unique id, the decoded counts and position bounds.
+struct DracoPrimitive {
+  std::string bytes;
+  int position = -1, normal = -1, tangent = -1, texcoord = -1;
+  std::uint32_t points = 0, faces = 0;
+  std::array<float, 3> low{}, high{};
+};
+// Positions to 14 bits, normals and tangents to 12, texture coordinates to
+// 16 (a 65,536th of the map: a 64th of a texel at 1024^2).
+Result<DracoPrimitive> dracoCompress(const GltfMesh& mesh);
+
 // The GLB (glTF 2.0 binary): one mesh, one node, a metallic-roughness
 // material whose normalTexture is `normalPng` (TEXCOORD_0, linear filtering
 // with mip-maps, clamped), and `extras` (a JSON object's text, may be empty)
 // on the asset. Bytes depend only on the arguments.
+// With `draco`, the primitive is that compressed one (its accessors without
+// buffer views, the extension used and required).
 std::string glbBytes(const GltfMesh& mesh, const std::string& normalPng, const std::string& generator,
-                     const std::string& extras);
+                     const std::string& extras, const DracoPrimitive* draco = nullptr);
 
 }  // namespace apo

@@ -7,6 +7,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include <optional>
+
 namespace apo {
 
 Status validateExportOptions(const ExportOptions& options) {
@@ -63,7 +65,14 @@ Result<ExportedAsset> exportGlb(const Scan& coarse, const NormalField& field, co
   r.texelsFilled = map.texelsFilled;
   r.texelsWithoutAnswer = map.texelsWithoutAnswer;
   r.pngBytes = png->size();
-  asset.glb = glbBytes(mesh, *png, generator, extrasJson(r, origin));
+  r.draco = options.draco;
+  std::optional<DracoPrimitive> compressed;
+  if (options.draco) {
+    auto made = dracoCompress(mesh);
+    if (!made) return made.error();
+    compressed = std::move(*made);
+  }
+  asset.glb = glbBytes(mesh, *png, generator, extrasJson(r, origin), compressed ? &*compressed : nullptr);
   r.glbBytes = asset.glb.size();
   r.seconds = stopwatch.seconds();
   return asset;
@@ -80,6 +89,7 @@ std::string exportReportJson(const ExportReport& r) {
   json["triangles"] = r.triangles;
   json["texels_filled"] = r.texelsFilled;
   json["texels_without_answer"] = r.texelsWithoutAnswer;
+  json["draco"] = r.draco;
   json["glb_bytes"] = r.glbBytes;
   json["seconds"] = r.seconds;
   return json.dump();

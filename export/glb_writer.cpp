@@ -3,6 +3,8 @@
 // every buffer view 4-byte aligned.
 #include "export/export.h"
 
+#include "adapters/draco/draco_mesh.h"
+
 #include <nlohmann/json.hpp>
 
 #include <cstring>
@@ -44,29 +46,76 @@ void appendU32(std::string& out, std::uint32_t value) {
 
 }  // namespace
 
+Result<DracoPrimitive> dracoCompress(const GltfMesh& mesh) {
+  draco_adapter::FlatMesh flat;
+  for (const Vec3f& p : mesh.positions) flat.positions.insert(flat.positions.end(), {p.x(), p.y(), p.z()});
+  for (const Vec3f& n : mesh.normals) flat.normals.insert(flat.normals.end(), {n.x(), n.y(), n.z()});
+  for (const Eigen::Vector4f& t : mesh.tangents) flat.tangents.insert(flat.tangents.end(), {t.x(), t.y(), t.z(), t.w()});
+  for (const Vec2f& uv : mesh.uvs) flat.texcoords.insert(flat.texcoords.end(), {uv.x(), uv.y()});
+  flat.indices = mesh.indices;
+  auto encoded = draco_adapter::encodeMesh(flat);
+  if (!encoded) return encoded.error();
+  DracoPrimitive draco;
+  draco.bytes = std::move(encoded->bytes);
+  draco.position = encoded->position;
+  draco.normal = encoded->normal;
+  draco.tangent = encoded->tangent;
+  draco.texcoord = encoded->texcoord;
+  draco.points = encoded->points;
+  draco.faces = encoded->faces;
+  draco.low = encoded->low;
+  draco.high = encoded->high;
+  return draco;
+}
+
 std::string glbBytes(const GltfMesh& mesh, const std::string& normalPng, const std::string& generator,
-                     const std::string& extras) {
+                     const std::string& extras, const DracoPrimitive* draco) {
   std::string bin;
   Json views = Json::array(), accessors = Json::array();
-  // The vertex attributes as plain float arrays (Eigen's fixed vectors are packed floats).
-  const int positions = addView(bin, views, mesh.positions, kArrayBuffer);
-  const int normals = addView(bin, views, mesh.normals, kArrayBuffer);
-  const int tangents = addView(bin, views, mesh.tangents, kArrayBuffer);
-  const int uvs = addView(bin, views, mesh.uvs, kArrayBuffer);
-  const int indices = addView(bin, views, mesh.indices, kElementArrayBuffer);
+  Json primitive = {{"attributes", {{"POSITION", 0}, {"NORMAL", 1}, {"TANGENT", 2}, {"TEXCOORD_0", 3}}},
+                    {"indices", 4},
+                    {"material", 0}};
+  if (draco == nullptr) {
+    // The vertex attributes as plain float arrays (Eigen's fixed vectors are packed floats).
+    const int positions = addView(bin, views, mesh.positions, kArrayBuffer);
+    const int normals = addView(bin, views, mesh.normals, kArrayBuffer);
+    const int tangents = addView(bin, views, mesh.tangents, kArrayBuffer);
+    const int uvs = addView(bin, views, mesh.uvs, kArrayBuffer);
+    const int indices = addView(bin, views, mesh.indices, kElementArrayBuffer);
+    Vec3f low = Vec3f::Constant(std::numeric_limits<float>::max()), high = -low;
+    for (const Vec3f& p : mesh.positions) low = low.cwiseMin(p), high = high.cwiseMax(p);
+    Json position = floatAccessor(positions, mesh.positions.size(), "VEC3");
+    position["min"] = {low.x(), low.y(), low.z()};
+    position["max"] = {high.x(), high.y(), high.z()};
+    accessors.push_back(std::move(position));
+    accessors.push_back(floatAccessor(normals, mesh.normals.size(), "VEC3"));
+    accessors.push_back(floatAccessor(tangents, mesh.tangents.size(), "VEC4"));
+    accessors.push_back(floatAccessor(uvs, mesh.uvs.size(), "VEC2"));
+    accessors.push_back(
+        {{"bufferView", indices}, {"componentType", kUnsignedInt}, {"count", mesh.indices.size()}, {"type", "SCALAR"}});
+  } else {
+    // KHR_draco_mesh_compression: the accessors state what the decoder gives
+    // and point at no buffer view; the compressed bytes have their own.
+    const std::vector<char> compressed(draco->bytes.begin(), draco->bytes.end());
+    const int view = addView(bin, views, compressed, 0);
+    const auto decoded = [&](const char* type) {
+      return Json{{"componentType", kFloat}, {"count", draco->points}, {"type", type}};
+    };
+    Json position = decoded("VEC3");
+    position["min"] = draco->low;
+    position["max"] = draco->high;
+    accessors.push_back(std::move(position));
+    accessors.push_back(decoded("VEC3"));
+    accessors.push_back(decoded("VEC4"));
+    accessors.push_back(decoded("VEC2"));
+    accessors.push_back({{"componentType", kUnsignedInt}, {"count", std::uint64_t{draco->faces} * 3}, {"type", "SCALAR"}});
+    primitive["extensions"]["KHR_draco_mesh_compression"] = {
+        {"bufferView", view},
+        {"attributes",
+         {{"POSITION", draco->position}, {"NORMAL", draco->normal}, {"TANGENT", draco->tangent}, {"TEXCOORD_0", draco->texcoord}}}};
+  }
   const std::vector<char> pngBytes(normalPng.begin(), normalPng.end());
   const int image = addView(bin, views, pngBytes, 0);
-
-  Vec3f low = Vec3f::Constant(std::numeric_limits<float>::max()), high = -low;
-  for (const Vec3f& p : mesh.positions) low = low.cwiseMin(p), high = high.cwiseMax(p);
-  Json position = floatAccessor(positions, mesh.positions.size(), "VEC3");
-  position["min"] = {low.x(), low.y(), low.z()};
-  position["max"] = {high.x(), high.y(), high.z()};
-  accessors.push_back(std::move(position));
-  accessors.push_back(floatAccessor(normals, mesh.normals.size(), "VEC3"));
-  accessors.push_back(floatAccessor(tangents, mesh.tangents.size(), "VEC4"));
-  accessors.push_back(floatAccessor(uvs, mesh.uvs.size(), "VEC2"));
-  accessors.push_back({{"bufferView", indices}, {"componentType", kUnsignedInt}, {"count", mesh.indices.size()}, {"type", "SCALAR"}});
 
   Json gltf;
   gltf["asset"] = {{"version", "2.0"}, {"generator", generator}};
@@ -74,10 +123,11 @@ std::string glbBytes(const GltfMesh& mesh, const std::string& normalPng, const s
   gltf["scene"] = 0;
   gltf["scenes"] = Json::array({{{"nodes", {0}}}});
   gltf["nodes"] = Json::array({{{"mesh", 0}}});
-  gltf["meshes"] = Json::array({{{"primitives",
-                                  Json::array({{{"attributes", {{"POSITION", 0}, {"NORMAL", 1}, {"TANGENT", 2}, {"TEXCOORD_0", 3}}},
-                                                {"indices", 4},
-                                                {"material", 0}}})}}});
+  if (draco != nullptr) {
+    gltf["extensionsUsed"] = Json::array({"KHR_draco_mesh_compression"});
+    gltf["extensionsRequired"] = Json::array({"KHR_draco_mesh_compression"});
+  }
+  gltf["meshes"] = Json::array({{{"primitives", Json::array({std::move(primitive)})}}});
   gltf["materials"] = Json::array({{{"pbrMetallicRoughness",
                                      {{"baseColorFactor", {0.8, 0.8, 0.8, 1.0}}, {"metallicFactor", 0.0}, {"roughnessFactor", 0.7}}},
                                     {"normalTexture", {{"index", 0}}}}});

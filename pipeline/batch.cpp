@@ -88,6 +88,23 @@ Result<FolderContents> findScans(const fs::path& scanDir, const fs::path& outDir
   return found;
 }
 
+// Removes a scan's output folder (one checkOutputFolderIsOurs accepted) so
+// that a batch killed at any moment leaves it still recognisably apo's: its
+// manifest and log go last. fs::remove_all alone removes in directory order
+// and could leave, say, render/ without them, a folder the rerun would then
+// have to leave alone.
+void removeOurFolder(const fs::path& folder, std::error_code& error) {
+  if (!fs::is_directory(fs::symlink_status(folder, error))) return;
+  std::vector<fs::path> contents, markers;
+  for (const fs::directory_entry& entry : fs::directory_iterator(folder, error)) {
+    const std::string name = entry.path().filename().string();
+    (name == "manifest.json" || name == "run.log" ? markers : contents).push_back(entry.path());
+  }
+  for (const fs::path& path : contents) fs::remove_all(path, error);
+  for (const fs::path& path : markers) fs::remove(path, error);
+  fs::remove(folder, error);
+}
+
 // An output folder may be emptied only if apo made it: absent, an empty
 // folder, or a folder holding a manifest or a worker's log. Anything else in
 // the way (a file, a user's folder) is left alone.
@@ -192,7 +209,7 @@ class Batch {
       return okStatus();
     }
     std::error_code error;
-    fs::remove_all(job.outDir, error);
+    removeOurFolder(job.outDir, error);
     fs::create_directories(job.outDir, error);
     if (error) return internalError("{}: cannot create: {}", job.outDir.string(), error.message());
     auto pid = pool_.start(workerCommand(settings_, job, threadsEach_), job.outDir / "run.log");

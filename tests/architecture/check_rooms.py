@@ -19,13 +19,14 @@ ALLOWED = {
     "adapters/pcl": {"core"},
     "adapters/osmesa": {"core"},
     "adapters/meshopt": {"core"},
+    "adapters/draco": {"core"},
     "format": {"core"},
     "ingest": {"core", "adapters/pcl", "adapters/cgal", "adapters/flann", "adapters/embree"},
     "reconstruct": {"core", "adapters/cgal", "adapters/flann", "adapters/meshopt"},
     "bake": {"core", "format"},
     "render": {"core", "format", "adapters/osmesa", "adapters/flann"},
     "report": {"core"},
-    "export": {"core", "format"},
+    "export": {"core", "format", "adapters/draco"},
     "pipeline": {"core", "format", "ingest", "reconstruct", "bake", "render", "report", "export",
                  "adapters/embree", "adapters/flann"},
     "cli": {"core", "format", "ingest", "reconstruct", "bake", "render", "report", "export", "pipeline"},
@@ -40,6 +41,7 @@ PUBLIC = {
     "adapters/pcl": {"pcl_points.h"},
     "adapters/osmesa": {"gl_context.h"},
     "adapters/meshopt": {"meshopt_simplify.h"},
+    "adapters/draco": {"draco_mesh.h"},
     "format": {"format.h"},
     "ingest": {"ingest.h"},
     "reconstruct": {"reconstruct.h"},
@@ -51,7 +53,7 @@ PUBLIC = {
     "cli": set(),
 }
 
-LIBRARY = re.compile(r"#include\s*<(CGAL/|pcl/|embree3/|flann/|GL/osmesa|tbb/|CLI/|meshoptimizer\.h)")
+LIBRARY = re.compile(r"#include\s*<(CGAL/|pcl/|embree3/|flann/|GL/osmesa|tbb/|CLI/|meshoptimizer\.h|draco/)")
 LOCAL = re.compile(r'#include\s*"([^"]+)"')
 
 

@@ -64,6 +64,18 @@ TEST_F(ExportCommand, AFinishedRunBecomesAGlbTheKhronosValidatorAccepts) {
   EXPECT_EQ(report["info"]["resources"][1]["image"]["width"], 256);
   EXPECT_EQ(report["info"]["resources"][1]["image"]["format"], "rgb");
 
+  // Draco-compressed: no error and no warning either (the validator cannot
+  // decode Draco and says so as an info; GlbWriter's test decodes it).
+  const fs::path draco = *dir_ / "draco.glb";
+  ASSERT_EQ(apo(fmt::format("export '{}' -o '{}' --map-size 256 --draco", (*dir_ / "run").string(), draco.string()))
+                .exitCode,
+            0);
+  const nlohmann::json dracoReport = khronosReport(draco);
+  EXPECT_EQ(dracoReport["errors"], 0) << dracoReport["messages"].dump();
+  EXPECT_EQ(dracoReport["warnings"], 0) << dracoReport["messages"].dump();
+  EXPECT_EQ(dracoReport["info"]["totalTriangleCount"], 300);
+  EXPECT_LT(fs::file_size(draco), fs::file_size(glb));
+
   // The same bytes again.
   const fs::path again = *dir_ / "again.glb";
   ASSERT_EQ(apo(fmt::format("export '{}' -o '{}' --map-size 256", (*dir_ / "run").string(), again.string())).exitCode, 0);

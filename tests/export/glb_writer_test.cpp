@@ -3,11 +3,15 @@
 // exported files in tests/export/gltf_validator_test).
 #include "export/export.h"
 
+#include "adapters/draco/draco_mesh.h"
+
 #include "tests/test_support.h"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
+#include <cmath>
 #include <cstring>
 
 namespace apo {
@@ -81,6 +85,60 @@ TEST(GlbWriter, HeaderChunksAndAccessorsFollowTheSpecification) {
   }
   // The same bytes every time.
   EXPECT_EQ(glbBytes(gltf, png, "apo test", R"({"apo": {"map": [64, 64]}})"), glb);
+}
+
+// Draco: the compressed primitive decodes (Draco's own decoder) to the same
+// triangles within its quantisation, and the GLB names it as
+// KHR_draco_mesh_compression says: accessors without buffer views stating
+// the decoded counts, the extension used and required.
+TEST(GlbWriter, DracoCompressedPrimitiveDecodesToTheSameTriangles) {
+  const Scan mesh = test::makeIcosphere(2);
+  const auto atlas = packTrianglePatches(mesh, 256, 256, 1);
+  ASSERT_TRUE(atlas.ok()) << atlas.error().message;
+  const GltfMesh gltf = patchMesh(mesh, *atlas);
+  const auto draco = dracoCompress(gltf);
+  ASSERT_TRUE(draco.ok()) << draco.error().message;
+  EXPECT_EQ(draco->faces, mesh.triangles.size());
+  auto decoded = draco_adapter::decodeMesh(draco->bytes, draco->position, draco->normal, draco->tangent, draco->texcoord);
+  ASSERT_TRUE(decoded.ok()) << decoded.error().message;
+  ASSERT_EQ(decoded->indices.size(), gltf.indices.size());
+  EXPECT_EQ(decoded->positions.size() / 3, draco->points);
+  // Every decoded corner lies on an original corner with the same UV and
+  // nearly the same normal (brute force over the originals).
+  double worstPosition = 0.0, worstUv = 0.0, worstNormal = 0.0;
+  for (std::uint32_t index : decoded->indices) {
+    const Vec3f p(decoded->positions[3 * index], decoded->positions[3 * index + 1], decoded->positions[3 * index + 2]);
+    const Vec2f uv(decoded->texcoords[2 * index], decoded->texcoords[2 * index + 1]);
+    const Vec3f n(decoded->normals[3 * index], decoded->normals[3 * index + 1], decoded->normals[3 * index + 2]);
+    double best = 1e9;
+    std::size_t match = 0;
+    for (std::size_t v = 0; v < gltf.positions.size(); ++v) {
+      const double d = (gltf.positions[v] - p).norm() + (gltf.uvs[v] - uv).norm();
+      if (d < best) best = d, match = v;
+    }
+    worstPosition = std::max(worstPosition, static_cast<double>((gltf.positions[match] - p).norm()));
+    worstUv = std::max(worstUv, static_cast<double>((gltf.uvs[match] - uv).norm()));
+    worstNormal = std::max(worstNormal, std::acos(std::clamp(static_cast<double>(gltf.normals[match].dot(n.normalized())), -1.0, 1.0)));
+  }
+  EXPECT_LT(worstPosition, 2.0 * 2.0 / (1 << 14));  // the unit sphere over 14 bits
+  EXPECT_LT(worstUv, 2.0 / (1 << 16));
+  EXPECT_LT(worstNormal * 180.0 / 3.14159265358979, 0.5);
+
+  const std::string glb = glbBytes(gltf, "png", "apo test", "", &*draco);
+  const auto json = nlohmann::json::parse(glb.substr(20, u32At(glb, 12)));
+  EXPECT_EQ(json["extensionsUsed"], nlohmann::json::array({"KHR_draco_mesh_compression"}));
+  EXPECT_EQ(json["extensionsRequired"], nlohmann::json::array({"KHR_draco_mesh_compression"}));
+  const auto& primitive = json["meshes"][0]["primitives"][0];
+  const auto& extension = primitive["extensions"]["KHR_draco_mesh_compression"];
+  EXPECT_EQ(extension["attributes"]["POSITION"], draco->position);
+  EXPECT_EQ(extension["attributes"]["TEXCOORD_0"], draco->texcoord);
+  for (const auto& accessor : json["accessors"]) EXPECT_FALSE(accessor.contains("bufferView"));
+  EXPECT_EQ(json["accessors"][primitive["indices"].get<int>()]["count"], 3 * mesh.triangles.size());
+  const auto& view = json["bufferViews"][extension["bufferView"].get<int>()];
+  const std::size_t binStart = 20 + u32At(glb, 12) + 8;
+  EXPECT_EQ(glb.substr(binStart + view["byteOffset"].get<std::size_t>(), view["byteLength"]), draco->bytes);
+  // Smaller than the plain primitive.
+  EXPECT_LT(glb.size(), glbBytes(gltf, "png", "apo test", "").size() / 2);
 }
 
 }  // namespace
