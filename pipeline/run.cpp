@@ -253,11 +253,11 @@ class Run {
       const Stopwatch judging;
       auto probes = scanProbes();
       if (!probes) return probes.error();
-      auto fidelity = measureAgainstScan(**probes, data_.scan.points, data_.dense, data_.texture);
-      if (!fidelity) return aboutInput(settings_.input, fidelity.error());
       auto coarseCaster = makeEmbreeMeshCaster(data_.coarse);
       if (!coarseCaster) return aboutInput(settings_.input, coarseCaster.error());
-      fidelity->views = measureViewsAgainstScan(**probes, data_.texture, cameras, **coarseCaster);
+      auto fidelity = measureAgainstScan(**probes, data_.scan.points, data_.dense, data_.texture,
+                                         ScanViews{cameras, coarseCaster->get()});
+      if (!fidelity) return aboutInput(settings_.input, fidelity.error());
       manifest_["results"]["render"]["against_scan"] = Json::parse(scanFidelityJson(*fidelity));
       // The probes, when the bake made them, are not in this figure.
       manifest_["results"]["render"]["against_scan"]["seconds"] = judging.seconds();

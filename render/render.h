@@ -234,14 +234,16 @@ AngularStats apoErrorAgainstScan(const ScanProbes& probes, const ApoTexture& apo
 struct ViewAgainstScan {
   AngularStats coarse, apo;
 };
-std::vector<ViewAgainstScan> measureViewsAgainstScan(const ScanProbes& probes, const ApoTexture& apo,
-                                                     const std::vector<Camera>& cameras, const RayCaster& coarse);
+struct ScanViews {
+  std::vector<Camera> cameras;
+  const RayCaster* coarse = nullptr;  // none: no per-view figures
+};
 
 // Everything against the scan: m's interpolated normal and the APO at the
 // probes; and M (when it is a mesh): each scan point's distance to M (every
 // n-th point, at most about `drawn` of them), as fractions of M's diagonal,
-// and the angle between its normal and M's at the closest point. `views`:
-// measureViewsAgainstScan's, when the caller measured them.
+// and the angle between its normal and M's at the closest point; per view
+// of `views` (ViewAgainstScan) when given m's caster.
 struct ScanFidelity {
   std::uint64_t probes = 0, kept = 0;
   AngularStats coarse, apo;  // "pixels": probes kept
@@ -250,7 +252,7 @@ struct ScanFidelity {
   std::vector<ViewAgainstScan> views;
 };
 Result<ScanFidelity> measureAgainstScan(const ScanProbes& probes, const PointSet& scan, const Scan& dense,
-                                        const ApoTexture& apo);
+                                        const ApoTexture& apo, const ScanViews& views = {});
 // The manifest's results.render.against_scan (docs/render.md).
 std::string scanFidelityJson(const ScanFidelity& fidelity);
 

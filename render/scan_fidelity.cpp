@@ -177,26 +177,21 @@ AngularStats apoErrorAgainstScan(const ScanProbes& probes, const ApoTexture& apo
   return statsOfAngles(apoDegreesAgainstScan(probes, apo));
 }
 
-std::vector<ViewAgainstScan> measureViewsAgainstScan(const ScanProbes& probes, const ApoTexture& apo,
-                                                     const std::vector<Camera>& cameras, const RayCaster& coarse) {
-  const std::vector<float> apoDegrees = apoDegreesAgainstScan(probes, apo);
-  const std::vector<float> coarseDegrees = coarseDegreesAgainstScan(probes);
-  std::vector<ViewAgainstScan> views;
-  for (const Camera& camera : cameras) {
-    const std::vector<bool> seen = seenFrom(probes, camera, coarse);
-    views.push_back({statsOfAngles(subset(coarseDegrees, seen)), statsOfAngles(subset(apoDegrees, seen))});
-  }
-  return views;
-}
-
 Result<ScanFidelity> measureAgainstScan(const ScanProbes& probes, const PointSet& scan, const Scan& dense,
-                                        const ApoTexture& apo) {
+                                        const ApoTexture& apo, const ScanViews& views) {
   ScanFidelity fidelity;
   fidelity.probes = probes.drawn;
   fidelity.kept = probes.positions.size();
   if (fidelity.kept == 0) return fidelity;
-  fidelity.coarse = statsOfAngles(coarseDegreesAgainstScan(probes));
-  fidelity.apo = apoErrorAgainstScan(probes, apo);
+  const std::vector<float> coarseDegrees = coarseDegreesAgainstScan(probes);
+  const std::vector<float> apoDegrees = apoDegreesAgainstScan(probes, apo);
+  fidelity.coarse = statsOfAngles(coarseDegrees);
+  fidelity.apo = statsOfAngles(apoDegrees);
+  if (views.coarse != nullptr)
+    for (const Camera& camera : views.cameras) {
+      const std::vector<bool> seen = seenFrom(probes, camera, *views.coarse);
+      fidelity.views.push_back({statsOfAngles(subset(coarseDegrees, seen)), statsOfAngles(subset(apoDegrees, seen))});
+    }
   if (dense.isMesh()) APO_RETURN_IF_ERROR(measureDense(scan, dense, probes.drawn, fidelity));
   return fidelity;
 }

@@ -57,6 +57,8 @@ CommandResult runCommand(const std::string& command) {
   return result;
 }
 
+CommandResult runApo(const std::string& arguments) { return runCommand(apoExecutable().string() + " " + arguments); }
+
 }  // namespace apo::test
 
 #include <algorithm>

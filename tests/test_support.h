@@ -28,6 +28,8 @@ struct CommandResult {
 };
 // Runs a shell command, capturing its output and exit code.
 CommandResult runCommand(const std::string& command);
+// Runs the `apo` under test with these arguments (shell syntax).
+CommandResult runApo(const std::string& arguments);
 
 }  // namespace apo::test
 

@@ -21,9 +21,7 @@ namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
-test::CommandResult apo(const std::string& arguments) {
-  return test::runCommand(fmt::format("{} {}", test::apoExecutable().string(), arguments));
-}
+test::CommandResult apo(const std::string& arguments) { return test::runApo(arguments); }
 
 // M (a bumpy sphere) and m (an icosphere) as files.
 struct Inputs {

@@ -18,9 +18,7 @@ namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
-test::CommandResult apo(const std::string& arguments) {
-  return test::runCommand(fmt::format("{} {}", test::apoExecutable().string(), arguments));
-}
+test::CommandResult apo(const std::string& arguments) { return test::runApo(arguments); }
 
 // A finished run of a bumpy sphere mesh, made once for the suite.
 class ExportCommand : public ::testing::Test {

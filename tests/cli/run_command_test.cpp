@@ -32,9 +32,7 @@ std::string fileBytes(const fs::path& path) {
   return bytes.ok() ? *bytes : std::string("<missing: ") + path.string() + ">";
 }
 
-test::CommandResult apo(const std::string& arguments) {
-  return test::runCommand(fmt::format("{} {}", test::apoExecutable().string(), arguments));
-}
+test::CommandResult apo(const std::string& arguments) { return test::runApo(arguments); }
 
 // A bumpy sphere mesh of 5,120 faces: the input is already M.
 fs::path writeMeshScan(const fs::path& path) {

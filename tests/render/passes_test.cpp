@@ -58,17 +58,24 @@ TEST_F(BumpySphereRender, GlslWalkAgreesWithTheCpuWalkOnEveryPixel) {
   EXPECT_LT(agreement->maxFilteredDegrees, 0.01);
 }
 
+// Points on the bumpy surface with their analytic normals.
+PointSet bumpyScan(std::size_t count) {
+  const test::BumpySphere shape;
+  PointSet scan;
+  for (const Vec3f& d : test::fibonacciSpherePoints(count)) {
+    scan.positions.push_back(shape.surfacePoint(d));
+    scan.normals.push_back(shape.normal(d));
+  }
+  return scan;
+}
+
 // The scan: points on the bumpy surface with their analytic normals. m alone
 // misses the bumps; the APO restores them; M (exact vertex normals) is on
 // the scan. m's figure is compared with the analytic normals at points of
 // every face of m (an independent estimate, holes included).
 TEST_F(BumpySphereRender, AgainstTheScanTheApoIsCloserThanMAlone) {
   const test::BumpySphere shape;
-  PointSet scan;
-  for (const Vec3f& d : test::fibonacciSpherePoints(100000)) {
-    scan.positions.push_back(shape.surfacePoint(d));
-    scan.normals.push_back(shape.normal(d));
-  }
+  const PointSet scan = bumpyScan(100000);
   const auto probes = probeAgainstScan(scan, *coarse_, 50000);
   ASSERT_TRUE(probes.ok()) << probes.error().message;
   const auto fidelity = measureAgainstScan(*probes, scan, *detail_, *texture_);
@@ -136,17 +143,15 @@ Vec3f faceNormalAt(const Scan& mesh, const Vec3f& point) {
 // eye; a large plate between m and the first view's eye hides every probe
 // from that view and from no view that does not look through it.
 TEST_F(BumpySphereRender, EachViewIsJudgedOnTheProbesItSees) {
-  const test::BumpySphere shape;
-  PointSet scan;
-  for (const Vec3f& d : test::fibonacciSpherePoints(20000)) {
-    scan.positions.push_back(shape.surfacePoint(d));
-    scan.normals.push_back(shape.normal(d));
-  }
+  const PointSet scan = bumpyScan(20000);
   const auto probes = probeAgainstScan(scan, *coarse_, 3000);
   ASSERT_TRUE(probes.ok()) << probes.error().message;
   const std::vector<Camera> cameras = standardViews(boundingBox(coarse_->points.positions), 14);
   const test::BruteForceCaster caster(*coarse_);
-  const std::vector<ViewAgainstScan> views = measureViewsAgainstScan(*probes, *texture_, cameras, caster);
+  // Without M as a mesh: no figures of M, only m and the APO.
+  const auto judged = measureAgainstScan(*probes, scan, Scan{}, *texture_, ScanViews{cameras, &caster});
+  ASSERT_TRUE(judged.ok()) << judged.error().message;
+  const std::vector<ViewAgainstScan>& views = judged->views;
   ASSERT_EQ(views.size(), cameras.size());
   std::vector<Vec3f> faceNormals;
   for (const Vec3f& probe : probes->positions) faceNormals.push_back(faceNormalAt(*coarse_, probe));
@@ -176,7 +181,9 @@ TEST_F(BumpySphereRender, EachViewIsJudgedOnTheProbesItSees) {
   plated.triangles.push_back({first, first + 1, first + 2});
   plated.triangles.push_back({first, first + 2, first + 3});
   const test::BruteForceCaster platedCaster(plated);
-  const std::vector<ViewAgainstScan> hidden = measureViewsAgainstScan(*probes, *texture_, cameras, platedCaster);
+  const auto platedJudged = measureAgainstScan(*probes, scan, Scan{}, *texture_, ScanViews{cameras, &platedCaster});
+  ASSERT_TRUE(platedJudged.ok()) << platedJudged.error().message;
+  const std::vector<ViewAgainstScan>& hidden = platedJudged->views;
   EXPECT_EQ(hidden[0].apo.pixels, 0u);
   int unchanged = 0;
   for (std::size_t v = 1; v < views.size(); ++v) unchanged += hidden[v].apo.pixels == views[v].apo.pixels ? 1 : 0;
