@@ -7,6 +7,7 @@
 #include "format/format.h"
 #include "ingest/ingest.h"
 #include "pipeline/bake_seams.h"
+#include "pipeline/pipeline.h"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -52,13 +53,12 @@ std::array<double, 3> originOf(const nlohmann::json& manifest) {
   return {origin[0].get<double>(), origin[1].get<double>(), origin[2].get<double>()};
 }
 
-// A mesh file is local (its header names the origin) or in world
-// coordinates (--keep-georeference), which the reader brings near zero by an
-// origin of its own: either way, into the run's frame, in double.
-void toRunFrame(Scan& scan, const std::array<double, 3>& origin) {
-  const Eigen::Vector3d shift(scan.origin[0] - origin[0], scan.origin[1] - origin[1], scan.origin[2] - origin[2]);
-  for (Vec3f& p : scan.points.positions) p = (p.cast<double>() + shift).cast<float>();
-  scan.origin = origin;
+// The scan the run read, as its manifest names it (empty if it does not).
+fs::path inputPath(const nlohmann::json& manifest) {
+  const auto input = manifest.find("input");
+  if (input != manifest.end() && input->is_object() && input->contains("path") && (*input)["path"].is_string())
+    return fs::path((*input)["path"].get<std::string>());
+  return {};
 }
 
 // M for --source detail: --detail, else the run's M.ply (point scans), else
@@ -66,10 +66,25 @@ void toRunFrame(Scan& scan, const std::array<double, 3>& origin) {
 fs::path detailPath(const ExportCommand& command, const nlohmann::json& manifest) {
   if (!command.detail.empty()) return command.detail;
   if (fs::exists(command.runDir / "M.ply")) return command.runDir / "M.ply";
-  const auto input = manifest.find("input");
-  if (input != manifest.end() && input->is_object() && (*input)["path"].is_string())
-    return fs::path((*input)["path"].get<std::string>());
-  return command.runDir / "M.ply";
+  const fs::path input = inputPath(manifest);
+  return input.empty() ? command.runDir / "M.ply" : input;
+}
+
+// The scan's colours for the base colour map, from the scan file as the
+// export stage takes them (moved into the run's frame). A scan file no
+// longer where the run read it leaves the GLB without base colour, and
+// says so.
+Result<ScanColors> scanColors(const ExportCommand& command, const nlohmann::json& manifest,
+                              const std::array<double, 3>& origin) {
+  if (!command.options.color) return ScanColors{};
+  const fs::path input = inputPath(manifest);
+  std::error_code missing;
+  if (input.empty() || !fs::is_regular_file(input, missing)) {
+    spdlog::warn("{}: the run's scan file is not there: the GLB gets no base colour map, even if the scan had colours",
+                 input.empty() ? (command.runDir / "manifest.json").string() : input.string());
+    return ScanColors{};
+  }
+  return readScanColors(input, origin);
 }
 
 Result<std::unique_ptr<ClosestPointFinder>> detailClosestPoint(const ExportCommand& command, const nlohmann::json& manifest,
@@ -79,7 +94,7 @@ Result<std::unique_ptr<ClosestPointFinder>> detailClosestPoint(const ExportComma
   if (!detail) return detail.error();
   if (!detail->isMesh())
     return badInput("{}: --source detail needs M as a triangle mesh; the file has only points", path.string());
-  toRunFrame(*detail, origin);
+  moveToFrame(*detail, origin);
   auto finder = meshClosestPoint(*detail);
   if (!finder) return aboutInput(path, finder.error());
   return finder;
@@ -105,7 +120,7 @@ int runExport(const ExportCommand& command) {
   auto coarse = readScan(coarsePath);
   if (!coarse) return reportFailure(coarse.error());
   const std::array<double, 3> origin = originOf(*manifest);
-  toRunFrame(*coarse, origin);
+  moveToFrame(*coarse, origin);
   std::unique_ptr<ClosestPointFinder> detail;
   if (command.source == "detail") {
     auto found = detailClosestPoint(command, *manifest, origin);
@@ -113,13 +128,18 @@ int runExport(const ExportCommand& command) {
     detail = std::move(*found);
   }
   const NormalField field = detail ? detailNormalField(*detail) : apoNormalField(*texture);
-  auto asset = exportGlb(*coarse, field, command.source, command.options, origin, fmt::format("apo {}", APO_VERSION));
+  auto colors = scanColors(command, *manifest, origin);
+  if (!colors) return reportFailure(colors.error());
+  const ColorField colorField = nearestScanColors(*colors);
+  auto asset = exportGlb(*coarse, field, command.source, command.options, origin, fmt::format("apo {}", APO_VERSION),
+                         colors->positions.empty() ? nullptr : &colorField);
   if (!asset) return reportFailure(aboutInput(coarsePath, asset.error()));
   if (Status s = writeFileAtomically(command.output, asset->glb); !s.ok()) return reportFailure(s.error());
   const ExportReport& r = asset->report;
-  spdlog::info("export: {} triangles, {} x {} normal map ({} KiB PNG, {:.0f}% of texels in patches), {} KiB in {:.2f} s -> {}",
-               r.triangles, r.mapWidth, r.mapHeight, r.pngBytes >> 10, 100.0 * r.usedShare, r.glbBytes >> 10, r.seconds,
-               command.output.string());
+  spdlog::info("export: {} triangles, {} x {} normal map ({} KiB PNG, {:.0f}% of texels in patches){}, {} KiB in {:.2f} s -> {}",
+               r.triangles, r.mapWidth, r.mapHeight, r.pngBytes >> 10, 100.0 * r.usedShare,
+               r.colorPngBytes > 0 ? fmt::format(", base colour map ({} KiB PNG)", r.colorPngBytes >> 10) : "",
+               r.glbBytes >> 10, r.seconds, command.output.string());
   return kExitSuccess;
 }
 

@@ -173,6 +173,8 @@ void addExportOptions(CLI::App& app, ExportOptions& options) {
       ->check(CLI::Range(1, 8))
       ->capture_default_str();
   app.add_flag("--draco", options.draco, "Compress the GLB's mesh with Draco (KHR_draco_mesh_compression)");
+  app.add_flag("--no-color{false}", options.color,
+               "No base colour map in the GLB, even when the scan has colours (by default they are baked into one)");
 }
 
 void addStageOptionGroups(CLI::App& app, StageArguments& arguments) {

@@ -71,6 +71,19 @@ struct NormalMap {
 };
 NormalMap bakeTangentNormalMap(const GltfMesh& mesh, const PatchAtlas& atlas, const NormalField& field);
 
+// The scan's colour at points of m, all at once (the search behind it runs
+// on every core); one answer per point.
+using ColorField = std::function<Result<std::vector<Rgb8>>(const std::vector<Vec3f>& points)>;
+
+// The base colour map on the same patches: RGB8 (the scan's bytes, which
+// glTF reads as sRGB), each texel within the gutter of a patch the field's
+// colour at the closest point of that triangle, the others push-pull.
+struct ColorMap {
+  std::uint32_t width = 0, height = 0;
+  std::vector<std::uint8_t> rgb;
+};
+Result<ColorMap> bakeColorMap(const GltfMesh& mesh, const PatchAtlas& atlas, const ColorField& field);
+
 // ---- The export stage: a finished run's m and APO as a GLB ----------------
 
 struct ExportOptions {
@@ -78,6 +91,7 @@ struct ExportOptions {
   std::uint32_t mapSize = 1024;  // the normal map's texels per side (square)
   int gutter = 2;                // texels kept free round each patch
   bool draco = false;            // the mesh compressed with Draco (KHR_draco_mesh_compression)
+  bool color = true;             // the scan's colours as the base colour map, when it has colours (--no-color: never)
 };
 // Usage error naming the option: map size in [16, 16384], gutter in [1, 8].
 Status validateExportOptions(const ExportOptions& options);
@@ -89,6 +103,7 @@ struct ExportReport {
   float texelsPerUnit = 0.0f;
   double usedShare = 0.0;
   std::uint64_t triangles = 0, texelsFilled = 0, texelsWithoutAnswer = 0, pngBytes = 0, glbBytes = 0;
+  std::uint64_t colorPngBytes = 0;  // the base colour map's PNG; 0 without one
   bool draco = false;
   double seconds = 0.0;
 };
@@ -106,10 +121,11 @@ NormalField apoNormalField(const ApoTexture& apo);
 // m (in the field's frame) with a normal map filled from `field`; `source`
 // names it in the report and the asset ("apo", or "detail" for M itself);
 // `origin`: the scan's local frame origin, in the asset's extras (file
-// coordinates = origin + glTF coordinates).
+// coordinates = origin + glTF coordinates); `color`, when given, fills the
+// material's base colour map on the same patches.
 Result<ExportedAsset> exportGlb(const Scan& coarse, const NormalField& field, const std::string& source,
                                 const ExportOptions& options, const std::array<double, 3>& origin,
-                                const std::string& generator);
+                                const std::string& generator, const ColorField* color = nullptr);
 // The manifest's results.export (docs/export.md).
 std::string exportReportJson(const ExportReport& report);
 
@@ -127,11 +143,15 @@ Result<DracoPrimitive> dracoCompress(const GltfMesh& mesh);
 
 // The GLB (glTF 2.0 binary): one mesh, one node, a metallic-roughness
 // material whose normalTexture is `normalPng` (TEXCOORD_0, linear filtering
-// with mip-maps, clamped), and `extras` (a JSON object's text, may be empty)
-// on the asset. Bytes depend only on the arguments.
-// With `draco`, the primitive is that compressed one (its accessors without
-// buffer views, the extension used and required).
-std::string glbBytes(const GltfMesh& mesh, const std::string& normalPng, const std::string& generator,
+// with mip-maps, clamped) and, when `colorPng` is not empty, whose
+// baseColorTexture is that (else a grey base colour), and `extras` (a JSON
+// object's text, may be empty) on the asset. Bytes depend only on the
+// arguments. With `draco`, the primitive is that compressed one (its
+// accessors without buffer views, the extension used and required).
+struct GlbImages {
+  std::string normalPng, colorPng;
+};
+std::string glbBytes(const GltfMesh& mesh, const GlbImages& images, const std::string& generator,
                      const std::string& extras, const DracoPrimitive* draco = nullptr);
 
 }  // namespace apo

@@ -27,7 +27,8 @@ std::string extrasJson(const ExportReport& report, const std::array<double, 3>& 
                    {"map", {report.mapWidth, report.mapHeight}},
                    {"gutter", report.gutter},
                    {"texels_per_unit", report.texelsPerUnit},
-                   {"used_share", report.usedShare}};
+                   {"used_share", report.usedShare},
+                   {"base_color", report.colorPngBytes > 0 ? "the scan's colours" : "none"}};
   extras["georeference"] = {{"origin", origin}, {"meaning", "scan file coordinates = origin + glTF coordinates"}};
   return extras.dump();
 }
@@ -43,7 +44,7 @@ NormalField apoNormalField(const ApoTexture& apo) {
 
 Result<ExportedAsset> exportGlb(const Scan& coarse, const NormalField& field, const std::string& source,
                                 const ExportOptions& options, const std::array<double, 3>& origin,
-                                const std::string& generator) {
+                                const std::string& generator, const ColorField* color) {
   APO_RETURN_IF_ERROR(validateExportOptions(options));
   if (!coarse.isMesh()) return badInput("m has no triangles to export");
   const Stopwatch stopwatch;
@@ -53,6 +54,14 @@ Result<ExportedAsset> exportGlb(const Scan& coarse, const NormalField& field, co
   const NormalMap map = bakeTangentNormalMap(mesh, *atlas, field);
   auto png = encodePng8(map.width, map.height, 3, map.rgb);
   if (!png) return png.error();
+  GlbImages images{std::move(*png), {}};
+  if (color != nullptr) {
+    auto colors = bakeColorMap(mesh, *atlas, *color);
+    if (!colors) return colors.error();
+    auto colorPng = encodePng8(colors->width, colors->height, 3, colors->rgb);
+    if (!colorPng) return colorPng.error();
+    images.colorPng = std::move(*colorPng);
+  }
   ExportedAsset asset;
   ExportReport& r = asset.report;
   r.source = source;
@@ -64,7 +73,8 @@ Result<ExportedAsset> exportGlb(const Scan& coarse, const NormalField& field, co
   r.triangles = coarse.triangles.size();
   r.texelsFilled = map.texelsFilled;
   r.texelsWithoutAnswer = map.texelsWithoutAnswer;
-  r.pngBytes = png->size();
+  r.pngBytes = images.normalPng.size();
+  r.colorPngBytes = images.colorPng.size();
   r.draco = options.draco;
   std::optional<DracoPrimitive> compressed;
   if (options.draco) {
@@ -72,7 +82,7 @@ Result<ExportedAsset> exportGlb(const Scan& coarse, const NormalField& field, co
     if (!made) return made.error();
     compressed = std::move(*made);
   }
-  asset.glb = glbBytes(mesh, *png, generator, extrasJson(r, origin), compressed ? &*compressed : nullptr);
+  asset.glb = glbBytes(mesh, images, generator, extrasJson(r, origin), compressed ? &*compressed : nullptr);
   r.glbBytes = asset.glb.size();
   r.seconds = stopwatch.seconds();
   return asset;
@@ -84,6 +94,9 @@ std::string exportReportJson(const ExportReport& r) {
   json["layout"] = "patches";
   json["source"] = r.source;
   json["map"] = {{"width", r.mapWidth}, {"height", r.mapHeight}, {"gutter", r.gutter}, {"png_bytes", r.pngBytes}};
+  // The scan's colours as the material's base colour map (docs/export.md).
+  json["base_color"] = r.colorPngBytes > 0 ? nlohmann::ordered_json{{"source", "scan colours"}, {"png_bytes", r.colorPngBytes}}
+                                           : nlohmann::ordered_json(nullptr);
   json["texels_per_unit"] = r.texelsPerUnit;
   json["used_share"] = r.usedShare;
   json["triangles"] = r.triangles;

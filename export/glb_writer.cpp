@@ -68,7 +68,7 @@ Result<DracoPrimitive> dracoCompress(const GltfMesh& mesh) {
   return draco;
 }
 
-std::string glbBytes(const GltfMesh& mesh, const std::string& normalPng, const std::string& generator,
+std::string glbBytes(const GltfMesh& mesh, const GlbImages& images, const std::string& generator,
                      const std::string& extras, const DracoPrimitive* draco) {
   std::string bin;
   Json views = Json::array(), accessors = Json::array();
@@ -114,8 +114,18 @@ std::string glbBytes(const GltfMesh& mesh, const std::string& normalPng, const s
         {"attributes",
          {{"POSITION", draco->position}, {"NORMAL", draco->normal}, {"TANGENT", draco->tangent}, {"TEXCOORD_0", draco->texcoord}}}};
   }
-  const std::vector<char> pngBytes(normalPng.begin(), normalPng.end());
-  const int image = addView(bin, views, pngBytes, 0);
+  Json imageList = Json::array(), textures = Json::array();
+  for (const std::string* png : {&images.normalPng, &images.colorPng}) {
+    if (png->empty()) continue;
+    const int view = addView(bin, views, std::vector<char>(png->begin(), png->end()), 0);
+    textures.push_back({{"sampler", 0}, {"source", imageList.size()}});
+    imageList.push_back({{"bufferView", view}, {"mimeType", "image/png"}});
+  }
+  const bool colored = !images.colorPng.empty();
+  Json pbr = {{"baseColorFactor", colored ? Json{1.0, 1.0, 1.0, 1.0} : Json{0.8, 0.8, 0.8, 1.0}},
+              {"metallicFactor", 0.0},
+              {"roughnessFactor", 0.7}};
+  if (colored) pbr["baseColorTexture"] = {{"index", 1}};
 
   Json gltf;
   gltf["asset"] = {{"version", "2.0"}, {"generator", generator}};
@@ -128,13 +138,11 @@ std::string glbBytes(const GltfMesh& mesh, const std::string& normalPng, const s
     gltf["extensionsRequired"] = Json::array({"KHR_draco_mesh_compression"});
   }
   gltf["meshes"] = Json::array({{{"primitives", Json::array({std::move(primitive)})}}});
-  gltf["materials"] = Json::array({{{"pbrMetallicRoughness",
-                                     {{"baseColorFactor", {0.8, 0.8, 0.8, 1.0}}, {"metallicFactor", 0.0}, {"roughnessFactor", 0.7}}},
-                                    {"normalTexture", {{"index", 0}}}}});
+  gltf["materials"] = Json::array({{{"pbrMetallicRoughness", std::move(pbr)}, {"normalTexture", {{"index", 0}}}}});
   gltf["samplers"] = Json::array(
       {{{"magFilter", kLinear}, {"minFilter", kLinearMipmapLinear}, {"wrapS", kClampToEdge}, {"wrapT", kClampToEdge}}});
-  gltf["images"] = Json::array({{{"bufferView", image}, {"mimeType", "image/png"}}});
-  gltf["textures"] = Json::array({{{"sampler", 0}, {"source", 0}}});
+  gltf["images"] = std::move(imageList);
+  gltf["textures"] = std::move(textures);
   gltf["accessors"] = std::move(accessors);
   gltf["bufferViews"] = std::move(views);
   gltf["buffers"] = Json::array({{{"byteLength", bin.size()}}});

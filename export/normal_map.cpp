@@ -2,6 +2,8 @@
 // baked in the frame glTF 2.0 viewers rebuild (docs/export.md, "The frame").
 #include "export/export.h"
 
+#include "core/triangle_geometry.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -49,32 +51,44 @@ Frame viewerFrame(const GltfMesh& mesh, std::size_t triangle, const Vec3f& w) {
   return frame;
 }
 
-// Barycentrics of the point of a 2D triangle closest to q (q itself when
-// inside), and that point's distance from q.
-std::pair<Vec3f, float> closestBarycentrics(const std::array<Vec2f, 3>& c, const Vec2f& q) {
-  const Vec2f e1 = c[1] - c[0], e2 = c[2] - c[0];
-  const float det = e1.x() * e2.y() - e2.x() * e1.y();
-  if (std::abs(det) > 1e-12f) {
-    const Vec2f d = q - c[0];
-    const float b = (d.x() * e2.y() - e2.x() * d.y()) / det, g = (e1.x() * d.y() - d.x() * e1.y()) / det;
-    if (b >= 0.0f && g >= 0.0f && b + g <= 1.0f) return {Vec3f(1.0f - b - g, b, g), 0.0f};
+// A texel a map fills: the triangle whose patch (or gutter) holds its
+// centre, and the barycentrics of that triangle's point closest to it.
+struct TexelSample {
+  std::size_t texel = 0, triangle = 0;
+  Vec3f weights = Vec3f::Zero();
+};
+
+// Every texel whose centre lies within the gutter of a patch, patch by
+// patch (the layout gives each texel to one patch at most).
+std::vector<TexelSample> patchTexels(const PatchAtlas& atlas) {
+  std::vector<TexelSample> samples;
+  const auto g = static_cast<float>(atlas.gutter);
+  const auto flat = [](const Vec2f& v) { return Vec3f(v.x(), v.y(), 0.0f); };
+  for (std::size_t f = 0; f < atlas.corners.size(); ++f) {
+    const std::array<Vec2f, 3>& c = atlas.corners[f];
+    const Vec2f low = c[0].cwiseMin(c[1]).cwiseMin(c[2]).array() - g;
+    const Vec2f high = c[0].cwiseMax(c[1]).cwiseMax(c[2]).array() + g;
+    const auto x0 = static_cast<std::uint32_t>(std::max(0.0f, std::floor(low.x())));
+    const auto y0 = static_cast<std::uint32_t>(std::max(0.0f, std::floor(low.y())));
+    const auto x1 = static_cast<std::uint32_t>(std::min(static_cast<float>(atlas.width), std::ceil(high.x())));
+    const auto y1 = static_cast<std::uint32_t>(std::min(static_cast<float>(atlas.height), std::ceil(high.y())));
+    for (std::uint32_t y = y0; y < y1; ++y)
+      for (std::uint32_t x = x0; x < x1; ++x) {
+        const Vec3f centre(static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f, 0.0f);
+        const TrianglePoint closest = closestPointOnTriangle(centre, flat(c[0]), flat(c[1]), flat(c[2]));
+        if (closest.squaredDistance > g * g) continue;
+        samples.push_back({std::size_t{y} * atlas.width + x, f, closest.weights});
+      }
   }
-  // Outside (or degenerate): the closest point of the three edges.
-  std::pair<Vec3f, float> best{Vec3f(1, 0, 0), (q - c[0]).norm()};
-  for (int k = 0; k < 3; ++k) {
-    const Vec2f& a = c[static_cast<std::size_t>(k)];
-    const Vec2f& b = c[static_cast<std::size_t>((k + 1) % 3)];
-    const Vec2f ab = b - a;
-    const float s = ab.squaredNorm() > 0.0f ? std::clamp((q - a).dot(ab) / ab.squaredNorm(), 0.0f, 1.0f) : 0.0f;
-    const float distance = (a + s * ab - q).norm();
-    if (distance < best.second) {
-      Vec3f w = Vec3f::Zero();
-      w[k] = 1.0f - s;
-      w[(k + 1) % 3] = s;
-      best = {w, distance};
-    }
-  }
-  return best;
+  return samples;
+}
+
+// The point of m at a sample (the mesh's triangle at its barycentrics).
+Vec3f samplePoint(const GltfMesh& mesh, const TexelSample& sample) {
+  Vec3f point = Vec3f::Zero();
+  for (int k = 0; k < 3; ++k)
+    point += sample.weights[k] * mesh.positions[mesh.indices[3 * sample.triangle + static_cast<std::size_t>(k)]];
+  return point;
 }
 
 std::uint8_t toByte(float c) { return static_cast<std::uint8_t>(std::lround(std::clamp(c * 0.5f + 0.5f, 0.0f, 1.0f) * 255.0f)); }
@@ -140,31 +154,15 @@ NormalMap bakeTangentNormalMap(const GltfMesh& mesh, const PatchAtlas& atlas, co
   const std::size_t texels = std::size_t{atlas.width} * atlas.height;
   std::vector<Vec3f> values(texels, Vec3f::Zero());
   std::vector<float> weights(texels, 0.0f);
-  const auto g = static_cast<float>(atlas.gutter);
-  for (std::size_t f = 0; f < atlas.corners.size(); ++f) {
-    const std::array<Vec2f, 3>& c = atlas.corners[f];
-    const Vec2f low = c[0].cwiseMin(c[1]).cwiseMin(c[2]).array() - g;
-    const Vec2f high = c[0].cwiseMax(c[1]).cwiseMax(c[2]).array() + g;
-    const auto x0 = static_cast<std::uint32_t>(std::max(0.0f, std::floor(low.x())));
-    const auto y0 = static_cast<std::uint32_t>(std::max(0.0f, std::floor(low.y())));
-    const auto x1 = static_cast<std::uint32_t>(std::min(static_cast<float>(atlas.width), std::ceil(high.x())));
-    const auto y1 = static_cast<std::uint32_t>(std::min(static_cast<float>(atlas.height), std::ceil(high.y())));
-    for (std::uint32_t y = y0; y < y1; ++y)
-      for (std::uint32_t x = x0; x < x1; ++x) {
-        const auto [w, distance] = closestBarycentrics(c, Vec2f(static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f));
-        if (distance > g) continue;
-        const Frame frame = viewerFrame(mesh, f, w);
-        Vec3f point = Vec3f::Zero();
-        for (int k = 0; k < 3; ++k) point += w[k] * mesh.positions[mesh.indices[3 * f + static_cast<std::size_t>(k)]];
-        const Vec3f wanted = field(point, frame.normal);
-        const bool answered = wanted.squaredNorm() > 0.0f;
-        const Vec3f n = answered ? Vec3f(wanted.normalized()) : frame.normal;
-        const std::size_t i = std::size_t{y} * atlas.width + x;
-        values[i] = Vec3f(n.dot(frame.tangent), n.dot(frame.bitangent), n.dot(frame.normal));
-        weights[i] = 1.0f;
-        ++map.texelsFilled;
-        map.texelsWithoutAnswer += answered ? 0 : 1;
-      }
+  for (const TexelSample& sample : patchTexels(atlas)) {
+    const Frame frame = viewerFrame(mesh, sample.triangle, sample.weights);
+    const Vec3f wanted = field(samplePoint(mesh, sample), frame.normal);
+    const bool answered = wanted.squaredNorm() > 0.0f;
+    const Vec3f n = answered ? Vec3f(wanted.normalized()) : frame.normal;
+    values[sample.texel] = Vec3f(n.dot(frame.tangent), n.dot(frame.bitangent), n.dot(frame.normal));
+    weights[sample.texel] = 1.0f;
+    ++map.texelsFilled;
+    map.texelsWithoutAnswer += answered ? 0 : 1;
   }
   if (map.texelsFilled > 0) pushPull(values, weights, atlas.width, atlas.height);
   map.rgb.resize(texels * 3);
@@ -172,6 +170,34 @@ NormalMap bakeTangentNormalMap(const GltfMesh& mesh, const PatchAtlas& atlas, co
     const Vec3f v = map.texelsFilled > 0 ? values[i] : Vec3f::UnitZ();
     for (int k = 0; k < 3; ++k) map.rgb[3 * i + static_cast<std::size_t>(k)] = toByte(v[k]);
   }
+  return map;
+}
+
+Result<ColorMap> bakeColorMap(const GltfMesh& mesh, const PatchAtlas& atlas, const ColorField& field) {
+  const std::vector<TexelSample> samples = patchTexels(atlas);
+  std::vector<Vec3f> points;
+  points.reserve(samples.size());
+  for (const TexelSample& sample : samples) points.push_back(samplePoint(mesh, sample));
+  auto colors = field(points);
+  if (!colors) return colors.error();
+  if (colors->size() != points.size())
+    return internalError("the colour field answered {} of {} points", colors->size(), points.size());
+  const std::size_t texels = std::size_t{atlas.width} * atlas.height;
+  std::vector<Vec3f> values(texels, Vec3f::Zero());
+  std::vector<float> weights(texels, 0.0f);
+  for (std::size_t s = 0; s < samples.size(); ++s) {
+    const Rgb8& c = (*colors)[s];
+    values[samples[s].texel] = Vec3f(c.r, c.g, c.b);
+    weights[samples[s].texel] = 1.0f;
+  }
+  if (!samples.empty()) pushPull(values, weights, atlas.width, atlas.height);
+  ColorMap map;
+  map.width = atlas.width;
+  map.height = atlas.height;
+  map.rgb.resize(texels * 3);
+  for (std::size_t i = 0; i < texels; ++i)
+    for (int k = 0; k < 3; ++k)
+      map.rgb[3 * i + static_cast<std::size_t>(k)] = static_cast<std::uint8_t>(std::lround(std::clamp(values[i][k], 0.0f, 255.0f)));
   return map;
 }
 

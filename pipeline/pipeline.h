@@ -127,4 +127,24 @@ Result<BatchSummary> runBatch(const BatchSettings& settings);
 // simulateScan (ingest.h) with an Embree BVH of the mesh.
 Result<SimulatedScan> simulateRangeScan(const Scan& mesh, const SimulateScanOptions& options);
 
+// A scan read as stored (a local frame of its reader's) moved into a run's
+// frame (`origin`: file coordinates = origin + coordinates), in double.
+void moveToFrame(Scan& scan, const std::array<double, 3>& origin);
+
+// The scan's coloured points, for the GLB's base colour (docs/export.md,
+// "Base colour"): the scan file read again as stored (finite points only),
+// so that the export stage and `apo export` of the run folder give the same
+// bytes, in the run's frame. Empty when the file has no colours.
+struct ScanColors {
+  std::vector<Vec3f> positions;
+  std::vector<Rgb8> colors;
+};
+Result<ScanColors> readScanColors(const std::filesystem::path& scanPath, const std::array<double, 3>& runOrigin);
+
+// Each point's colour: the mean of the kScanColorNeighbours nearest coloured
+// points' colours, weighted by their inverse squared distance (nanoflann's exact
+// search; the same answers whatever the thread count).
+inline constexpr std::size_t kScanColorNeighbours = 4;
+ColorField nearestScanColors(const ScanColors& colors);
+
 }  // namespace apo

@@ -268,9 +268,18 @@ class Run {
 
   // m and the APO as a GLB (docs/export.md), in the local frame whose
   // origin the asset's extras record.
+  // With the scan's colours, read again from its file as `apo export` does.
   Status exportAsset() {
+    ScanColors colors;
+    if (settings_.options.exporting.color && data_.scan.points.hasColors()) {
+      auto read = readScanColors(settings_.input, data_.scan.origin);
+      if (!read) return aboutInput(settings_.input, read.error());
+      colors = std::move(*read);
+    }
+    const ColorField colorField = nearestScanColors(colors);
     auto asset = exportGlb(data_.coarse, apoNormalField(data_.texture), "apo", settings_.options.exporting,
-                           data_.scan.origin, fmt::format("apo {}", manifest_["tool"]["version"].get<std::string>()));
+                           data_.scan.origin, fmt::format("apo {}", manifest_["tool"]["version"].get<std::string>()),
+                           colors.positions.empty() ? nullptr : &colorField);
     if (!asset) return aboutInput(settings_.input, asset.error());
     APO_RETURN_IF_ERROR(writeFileAtomically(settings_.outDir / "asset.glb", asset->glb));
     addFile("glb", "asset.glb");

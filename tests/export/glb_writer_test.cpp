@@ -29,7 +29,7 @@ TEST(GlbWriter, HeaderChunksAndAccessorsFollowTheSpecification) {
   ASSERT_TRUE(atlas.ok()) << atlas.error().message;
   const GltfMesh gltf = patchMesh(mesh, *atlas);
   const std::string png = "\x89PNG not really an image, 37 bytes";
-  const std::string glb = glbBytes(gltf, png, "apo test", R"({"apo": {"map": [64, 64]}})");
+  const std::string glb = glbBytes(gltf, {png, {}}, "apo test", R"({"apo": {"map": [64, 64]}})");
 
   ASSERT_GE(glb.size(), 28u);
   EXPECT_EQ(glb.substr(0, 4), "glTF");
@@ -77,6 +77,11 @@ TEST(GlbWriter, HeaderChunksAndAccessorsFollowTheSpecification) {
   EXPECT_EQ(image["mimeType"], "image/png");
   const auto& imageView = json["bufferViews"][image["bufferView"].get<int>()];
   EXPECT_EQ(bin.substr(imageView["byteOffset"], imageView["byteLength"]), png);
+  // Without a colour map: one image, a grey base colour and no base colour texture.
+  EXPECT_EQ(json["images"].size(), 1u);
+  const auto& pbr = json["materials"][0]["pbrMetallicRoughness"];
+  EXPECT_FALSE(pbr.contains("baseColorTexture"));
+  EXPECT_EQ(pbr["baseColorFactor"][0], 0.8);
   // Tangents: unit, orthogonal to their normals, w = +1 (no mirrored patch).
   for (std::size_t i = 0; i < gltf.tangents.size(); ++i) {
     EXPECT_NEAR(gltf.tangents[i].head<3>().norm(), 1.0f, 1e-5f);
@@ -84,7 +89,30 @@ TEST(GlbWriter, HeaderChunksAndAccessorsFollowTheSpecification) {
     EXPECT_EQ(gltf.tangents[i].w(), 1.0f);
   }
   // The same bytes every time.
-  EXPECT_EQ(glbBytes(gltf, png, "apo test", R"({"apo": {"map": [64, 64]}})"), glb);
+  EXPECT_EQ(glbBytes(gltf, {png, {}}, "apo test", R"({"apo": {"map": [64, 64]}})"), glb);
+}
+
+// With a colour map: the material's baseColorTexture names its bytes, on
+// the same UVs, the normal texture unchanged.
+TEST(GlbWriter, AColourMapBecomesTheBaseColourTexture) {
+  const Scan mesh = test::makeIcosphere(1);
+  const auto atlas = packTrianglePatches(mesh, 64, 64, 1);
+  ASSERT_TRUE(atlas.ok()) << atlas.error().message;
+  const std::string normals = "\x89PNG the normals", colors = "\x89PNG the colours, 26 b";
+  const std::string glb = glbBytes(patchMesh(mesh, *atlas), {normals, colors}, "apo test", "");
+  const std::uint32_t jsonLength = u32At(glb, 12);
+  const auto json = nlohmann::json::parse(glb.substr(20, jsonLength));
+  const std::string bin = glb.substr(20 + jsonLength + 8);
+  const auto imageBytes = [&](int texture) {
+    const auto& image = json["images"][json["textures"][texture]["source"].get<int>()];
+    const auto& view = json["bufferViews"][image["bufferView"].get<int>()];
+    return bin.substr(view["byteOffset"], view["byteLength"]);
+  };
+  const auto& material = json["materials"][0];
+  EXPECT_EQ(imageBytes(material["normalTexture"]["index"]), normals);
+  EXPECT_EQ(imageBytes(material["pbrMetallicRoughness"]["baseColorTexture"]["index"]), colors);
+  EXPECT_FALSE(material["pbrMetallicRoughness"]["baseColorTexture"].contains("texCoord"));  // TEXCOORD_0, the patches
+  EXPECT_EQ(material["pbrMetallicRoughness"]["baseColorFactor"], nlohmann::json::array({1.0, 1.0, 1.0, 1.0}));
 }
 
 // Draco: the compressed primitive decodes (Draco's own decoder) to the same
@@ -124,7 +152,7 @@ TEST(GlbWriter, DracoCompressedPrimitiveDecodesToTheSameTriangles) {
   EXPECT_LT(worstUv, 2.0 / (1 << 16));
   EXPECT_LT(worstNormal * 180.0 / 3.14159265358979, 0.5);
 
-  const std::string glb = glbBytes(gltf, "png", "apo test", "", &*draco);
+  const std::string glb = glbBytes(gltf, {"png", {}}, "apo test", "", &*draco);
   const auto json = nlohmann::json::parse(glb.substr(20, u32At(glb, 12)));
   EXPECT_EQ(json["extensionsUsed"], nlohmann::json::array({"KHR_draco_mesh_compression"}));
   EXPECT_EQ(json["extensionsRequired"], nlohmann::json::array({"KHR_draco_mesh_compression"}));
@@ -138,7 +166,7 @@ TEST(GlbWriter, DracoCompressedPrimitiveDecodesToTheSameTriangles) {
   const std::size_t binStart = 20 + u32At(glb, 12) + 8;
   EXPECT_EQ(glb.substr(binStart + view["byteOffset"].get<std::size_t>(), view["byteLength"]), draco->bytes);
   // Smaller than the plain primitive.
-  EXPECT_LT(glb.size(), glbBytes(gltf, "png", "apo test", "").size() / 2);
+  EXPECT_LT(glb.size(), glbBytes(gltf, {"png", {}}, "apo test", "").size() / 2);
 }
 
 }  // namespace

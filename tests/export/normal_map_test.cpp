@@ -124,5 +124,82 @@ TEST(NormalMap, EveryTexelOutsideThePatchesIsFilledFromNearby) {
   EXPECT_GT(unitLength, map.rgb.size() / 3 * 95 / 100);
 }
 
+// The base colour map: a smooth colour of position, sampled by a viewer
+// bilinearly at the vertices' interpolated UVs, against the colour itself.
+Rgb8 smoothColor(const Vec3f& p) {
+  const auto channel = [](float v) { return static_cast<std::uint8_t>(std::lround(127.5f + 120.0f * std::sin(v))); };
+  return {channel(3.0f * p.x()), channel(2.0f * p.y() + 1.0f), channel(2.5f * p.z() - 0.5f)};
+}
+
+TEST(ColorMap, AViewerSamplesTheScansColourUpToTexels) {
+  const Scan mesh = test::makeIcosphere(3);
+  const auto atlas = packTrianglePatches(mesh, 512, 512, 2);
+  ASSERT_TRUE(atlas.ok()) << atlas.error().message;
+  const GltfMesh gltf = patchMesh(mesh, *atlas);
+  std::size_t asked = 0;
+  const ColorField field = [&](const std::vector<Vec3f>& points) -> Result<std::vector<Rgb8>> {
+    asked += points.size();
+    std::vector<Rgb8> colors;
+    for (const Vec3f& p : points) colors.push_back(smoothColor(p));
+    return colors;
+  };
+  const auto map = bakeColorMap(gltf, *atlas, field);
+  ASSERT_TRUE(map.ok()) << map.error().message;
+  ASSERT_EQ(map->rgb.size(), 512u * 512u * 3u);
+  EXPECT_GT(asked, static_cast<std::size_t>(atlas->usedShare * 512 * 512));  // every texel of every patch, gutters too
+  std::mt19937 random(11);
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+  double sum = 0.0, worst = 0.0;
+  std::size_t count = 0;
+  for (std::size_t f = 0; f < mesh.triangles.size(); ++f)
+    for (int s = 0; s < 10; ++s) {
+      float a = unit(random), b = unit(random);
+      if (a + b > 1.0f) a = 1.0f - a, b = 1.0f - b;
+      const std::array<float, 3> w{1.0f - a - b, a, b};
+      Vec3f point = Vec3f::Zero();
+      Vec2f uv = Vec2f::Zero();
+      for (std::size_t k = 0; k < 3; ++k) {
+        point += w[k] * gltf.positions[gltf.indices[3 * f + k]];
+        uv += w[k] * gltf.uvs[gltf.indices[3 * f + k]];
+      }
+      // Bilinear, texel centres at half-integers (glTF's sampler, linear).
+      const double x = uv.x() * 512 - 0.5, y = uv.y() * 512 - 0.5;
+      const auto x0 = static_cast<std::size_t>(std::floor(x)), y0 = static_cast<std::size_t>(std::floor(y));
+      const double fx = x - x0, fy = y - y0;
+      const Rgb8 truth = smoothColor(point);
+      for (int c = 0; c < 3; ++c) {
+        const auto at = [&](std::size_t tx, std::size_t ty) { return double(map->rgb[3 * (ty * 512 + tx) + c]); };
+        const double sampled = (1 - fx) * (1 - fy) * at(x0, y0) + fx * (1 - fy) * at(x0 + 1, y0) +
+                               (1 - fx) * fy * at(x0, y0 + 1) + fx * fy * at(x0 + 1, y0 + 1);
+        const double wanted = c == 0 ? truth.r : c == 1 ? truth.g : truth.b;
+        sum += std::abs(sampled - wanted);
+        worst = std::max(worst, std::abs(sampled - wanted));
+        ++count;
+      }
+    }
+  // A texel spans about 1/90 of the sphere's radius here: the colour moves
+  // by about 4 levels across one, and the blend of a smooth colour is closer.
+  EXPECT_LT(sum / count, 1.5) << "worst " << worst;
+  EXPECT_LT(worst, 8.0);
+}
+
+// A field that fails, fails the map; one that answers for too few points is
+// an internal error, not a map of stale texels.
+TEST(ColorMap, AFailingOrShortFieldFailsTheMap) {
+  const Scan mesh = test::makeIcosphere(1);
+  const auto atlas = packTrianglePatches(mesh, 64, 64, 1);
+  ASSERT_TRUE(atlas.ok()) << atlas.error().message;
+  const GltfMesh gltf = patchMesh(mesh, *atlas);
+  const auto failed = bakeColorMap(gltf, *atlas, [](const std::vector<Vec3f>&) -> Result<std::vector<Rgb8>> {
+    return badInput("scan.ply: unreadable colours");
+  });
+  ASSERT_FALSE(failed.ok());
+  EXPECT_NE(failed.error().message.find("scan.ply"), std::string::npos);
+  const auto shortAnswer = bakeColorMap(gltf, *atlas, [](const std::vector<Vec3f>&) -> Result<std::vector<Rgb8>> {
+    return std::vector<Rgb8>(3);
+  });
+  EXPECT_FALSE(shortAnswer.ok());
+}
+
 }  // namespace
 }  // namespace apo
