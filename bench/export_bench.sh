@@ -57,6 +57,11 @@ print('%.0f%%' % (100 * json.loads(b[20:20 + n])['asset']['extras']['apo']['used
     echo "| GLB, ${size}^2, gutter $gutter | $(stat -c %s "$glb") | $share | $seconds | $(stats "$glb.json") |"
   done
 done
+# Every patch at one density (--patch-size uniform): what sizing by detail gains.
+glb="$out/uniform_1024.glb"
+run $apo -q export "$out/run" -o "$glb" --patch-size uniform
+eval_with "$glb" "/usr/bin/python3 $tools/glb_lookup.py {apo} {points} {out}" "$glb.json"
+echo "| GLB, 1024^2, gutter 2, uniform patches (--patch-size uniform) | $(stat -c %s "$glb") | | | $(stats "$glb.json") |"
 # The same patches filled straight from M (--source detail): what the APO costs.
 for size in 1024 2048; do
   glb="$out/detail_${size}.glb"

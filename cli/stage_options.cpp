@@ -173,6 +173,11 @@ void addExportOptions(CLI::App& app, ExportOptions& options) {
       ->check(CLI::Range(1, 8))
       ->capture_default_str();
   app.add_flag("--draco", options.draco, "Compress the GLB's mesh with Draco (KHR_draco_mesh_compression)");
+  app.add_option_function<std::string>(
+         "--patch-size", [&options](const std::string& rule) { options.detailSizing = rule == "detail"; },
+         "Each triangle's patch of the maps sized from the detail it covers (detail), or all at one texel density "
+         "(uniform) [detail]")
+      ->check(CLI::IsMember({"detail", "uniform"}));
   app.add_flag("--no-color{false}", options.color,
                "No base colour map in the GLB, even when the scan has colours (by default they are baked into one)");
 }

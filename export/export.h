@@ -22,11 +22,13 @@ using Vec2f = Eigen::Vector2f;
 
 // Where each triangle of m lies in the map, in texel units (x right, y down,
 // texel (i, j) covers [i, i+1) x [j, j+1)). Each patch is its triangle laid
-// flat without shearing (a similarity: lengths scaled by texelsPerUnit), its
-// longest edge along x; patches and their gutters do not overlap.
+// flat without shearing (a similarity: lengths scaled by texelsPerUnit times
+// the triangle's scale), its longest edge along x; patches and their gutters
+// do not overlap.
 struct PatchAtlas {
   std::uint32_t width = 0, height = 0;
   float texelsPerUnit = 0.0f;
+  std::vector<float> scales;                 // per triangle of m: its patch's density over texelsPerUnit
   int gutter = 0;                            // texels kept free round each patch
   std::vector<std::array<Vec2f, 3>> corners;  // per triangle of m, in its corner order
   double usedShare = 0.0;                    // texels inside a triangle / all texels
@@ -34,10 +36,13 @@ struct PatchAtlas {
 
 // Packs every triangle of `coarse` into a width x height map at the largest
 // texel density that fits (shelves of patches sorted by height, a binary
-// search on the density), `gutter` texels apart and from the border.
+// search on the density), `gutter` texels apart and from the border; each
+// triangle's patch `scales[f]` times that density (empty: all 1).
 // BadInput when m has no triangle of positive area; Usage when the sizes are
 // outside [16, 16384] or the gutter outside [1, 8].
-Result<PatchAtlas> packTrianglePatches(const Scan& coarse, std::uint32_t width, std::uint32_t height, int gutter = 2);
+Result<PatchAtlas> packTrianglePatches(const Scan& coarse, std::uint32_t width, std::uint32_t height, int gutter = 2,
+                                       const std::vector<float>& scales = {});
+
 
 // m as a glTF primitive: three vertices per triangle (a patch each), m's
 // area-weighted vertex normals, a tangent per vertex (the direction of +u in
@@ -55,6 +60,15 @@ GltfMesh patchMesh(const Scan& coarse, const PatchAtlas& atlas);
 // The normal to show at a point of m, given m's interpolated normal there
 // (unit); a zero vector means "no answer" (the map then keeps m's normal).
 using NormalField = std::function<Vec3f(const Vec3f& point, const Vec3f& coarseNormal)>;
+
+// Patch scales from the detail each triangle covers (the paper's patches
+// sized from the fine surface under them): the field's normal on a lattice
+// of points of the triangle, its mean turn per unit length g between
+// neighbouring points, and scale (g / median g)^(1/3) clamped to
+// [kMinPatchScale, kMaxPatchScale] (the cube root spreads a fixed number of
+// texels where a linear texel's error, g times its size, falls most).
+inline constexpr float kMinPatchScale = 0.5f, kMaxPatchScale = 2.0f;
+std::vector<float> detailPatchScales(const Scan& coarse, const NormalField& field);
 
 // The tangent-space normal map: RGB8, row-major, top row first. Each texel
 // whose centre lies within the gutter of a patch takes the field at the
@@ -92,6 +106,7 @@ struct ExportOptions {
   int gutter = 2;                // texels kept free round each patch
   bool draco = false;            // the mesh compressed with Draco (KHR_draco_mesh_compression)
   bool color = true;             // the scan's colours as the base colour map, when it has colours (--no-color: never)
+  bool detailSizing = true;      // patches sized by detailPatchScales (--patch-size detail), or all at one density (uniform)
 };
 // Usage error naming the option: map size in [16, 16384], gutter in [1, 8].
 Status validateExportOptions(const ExportOptions& options);
@@ -101,6 +116,8 @@ struct ExportReport {
   std::uint32_t mapWidth = 0, mapHeight = 0;
   int gutter = 0;
   float texelsPerUnit = 0.0f;
+  bool detailSizing = false;
+  float smallestScale = 1.0f, largestScale = 1.0f;  // of the patches' scales
   double usedShare = 0.0;
   std::uint64_t triangles = 0, texelsFilled = 0, texelsWithoutAnswer = 0, pngBytes = 0, glbBytes = 0;
   std::uint64_t colorPngBytes = 0;  // the base colour map's PNG; 0 without one

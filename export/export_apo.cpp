@@ -7,6 +7,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <optional>
 
 namespace apo {
@@ -27,6 +28,7 @@ std::string extrasJson(const ExportReport& report, const std::array<double, 3>& 
                    {"map", {report.mapWidth, report.mapHeight}},
                    {"gutter", report.gutter},
                    {"texels_per_unit", report.texelsPerUnit},
+                   {"patch_size", report.detailSizing ? "detail" : "uniform"},
                    {"used_share", report.usedShare},
                    {"base_color", report.colorPngBytes > 0 ? "the scan's colours" : "none"}};
   extras["georeference"] = {{"origin", origin}, {"meaning", "scan file coordinates = origin + glTF coordinates"}};
@@ -48,7 +50,8 @@ Result<ExportedAsset> exportGlb(const Scan& coarse, const NormalField& field, co
   APO_RETURN_IF_ERROR(validateExportOptions(options));
   if (!coarse.isMesh()) return badInput("m has no triangles to export");
   const Stopwatch stopwatch;
-  auto atlas = packTrianglePatches(coarse, options.mapSize, options.mapSize, options.gutter);
+  const std::vector<float> scales = options.detailSizing ? detailPatchScales(coarse, field) : std::vector<float>{};
+  auto atlas = packTrianglePatches(coarse, options.mapSize, options.mapSize, options.gutter, scales);
   if (!atlas) return atlas.error();
   const GltfMesh mesh = patchMesh(coarse, *atlas);
   const NormalMap map = bakeTangentNormalMap(mesh, *atlas, field);
@@ -69,6 +72,9 @@ Result<ExportedAsset> exportGlb(const Scan& coarse, const NormalField& field, co
   r.mapHeight = map.height;
   r.gutter = atlas->gutter;
   r.texelsPerUnit = atlas->texelsPerUnit;
+  r.detailSizing = options.detailSizing;
+  r.smallestScale = *std::min_element(atlas->scales.begin(), atlas->scales.end());
+  r.largestScale = *std::max_element(atlas->scales.begin(), atlas->scales.end());
   r.usedShare = atlas->usedShare;
   r.triangles = coarse.triangles.size();
   r.texelsFilled = map.texelsFilled;
@@ -98,6 +104,10 @@ std::string exportReportJson(const ExportReport& r) {
   json["base_color"] = r.colorPngBytes > 0 ? nlohmann::ordered_json{{"source", "scan colours"}, {"png_bytes", r.colorPngBytes}}
                                            : nlohmann::ordered_json(nullptr);
   json["texels_per_unit"] = r.texelsPerUnit;
+  // Each patch's density is texels_per_unit times its scale (docs/export.md, "The patches").
+  json["patch_size"] = {{"rule", r.detailSizing ? "detail" : "uniform"},
+                        {"smallest_scale", r.smallestScale},
+                        {"largest_scale", r.largestScale}};
   json["used_share"] = r.usedShare;
   json["triangles"] = r.triangles;
   json["texels_filled"] = r.texelsFilled;

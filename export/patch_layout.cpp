@@ -157,18 +157,28 @@ std::optional<Placement> shelve(const std::vector<FlatTriangle>& flats, const st
 
 }  // namespace
 
-Result<PatchAtlas> packTrianglePatches(const Scan& coarse, std::uint32_t width, std::uint32_t height, int gutter) {
+Result<PatchAtlas> packTrianglePatches(const Scan& coarse, std::uint32_t width, std::uint32_t height, int gutter,
+                                       const std::vector<float>& scales) {
   if (width < kMinSize || width > kMaxSize || height < kMinSize || height > kMaxSize)
     return usageError("the normal map must be between {} and {} texels per side (asked {} x {})", kMinSize, kMaxSize,
                       width, height);
   if (gutter < 1 || gutter > 8) return usageError("the gutter must be 1 to 8 texels (asked {})", gutter);
+  if (!scales.empty() && scales.size() != coarse.triangles.size())
+    return internalError("{} patch scales for {} triangles", scales.size(), coarse.triangles.size());
   const auto& p = coarse.points.positions;
   std::vector<FlatTriangle> flats;
   flats.reserve(coarse.triangles.size());
   double area = 0.0;
-  for (const Triangle& t : coarse.triangles) {
-    flats.push_back(flatten(p[t[0]], p[t[1]], p[t[2]]));
-    area += 0.5 * static_cast<double>(flats.back().width) * flats.back().height;
+  for (std::size_t f = 0; f < coarse.triangles.size(); ++f) {
+    const Triangle& t = coarse.triangles[f];
+    FlatTriangle flat = flatten(p[t[0]], p[t[1]], p[t[2]]);
+    if (!scales.empty()) {
+      for (Vec2f& corner : flat.at) corner *= scales[f];
+      flat.width *= scales[f];
+      flat.height *= scales[f];
+    }
+    flats.push_back(flat);
+    area += 0.5 * static_cast<double>(flat.width) * flat.height;
   }
   if (!(area > 0.0)) return badInput("m has no triangle of positive area to give a patch of the normal map");
 
@@ -202,7 +212,56 @@ Result<PatchAtlas> packTrianglePatches(const Scan& coarse, std::uint32_t width, 
   atlas.gutter = gutter;
   atlas.usedShare = best->usedShare;
   atlas.corners = std::move(best->corners);
+  atlas.scales = scales.empty() ? std::vector<float>(coarse.triangles.size(), 1.0f) : scales;
   return atlas;
+}
+
+std::vector<float> detailPatchScales(const Scan& coarse, const NormalField& field) {
+  constexpr int kSteps = 4;  // lattice of points at barycentrics (i, j, k) / kSteps
+  const auto& p = coarse.points.positions;
+  const std::vector<Vec3f> vertexNormals = coarse.points.normals.size() == coarse.points.size()
+                                               ? coarse.points.normals
+                                               : areaWeightedVertexNormals(coarse);
+  std::vector<float> turn(coarse.triangles.size(), 0.0f);
+  for (std::size_t f = 0; f < coarse.triangles.size(); ++f) {
+    const Triangle& t = coarse.triangles[f];
+    // The field on the lattice, row by row (i + j <= kSteps).
+    std::vector<Vec3f> points, normals;
+    for (int i = 0; i <= kSteps; ++i)
+      for (int j = 0; i + j <= kSteps; ++j) {
+        const Vec3f w(static_cast<float>(kSteps - i - j), static_cast<float>(i), static_cast<float>(j));
+        const Vec3f point = (w[0] * p[t[0]] + w[1] * p[t[1]] + w[2] * p[t[2]]) / kSteps;
+        Vec3f coarseNormal = w[0] * vertexNormals[t[0]] + w[1] * vertexNormals[t[1]] + w[2] * vertexNormals[t[2]];
+        coarseNormal = coarseNormal.squaredNorm() > 0.0f ? Vec3f(coarseNormal.normalized()) : Vec3f::UnitZ();
+        const Vec3f n = field(point, coarseNormal);
+        points.push_back(point);
+        normals.push_back(n.squaredNorm() > 0.0f ? Vec3f(n.normalized()) : coarseNormal);
+      }
+    // Mean turn per unit length between lattice neighbours (+i and +j).
+    const auto at = [](int i, int j) { return static_cast<std::size_t>(i * (2 * kSteps + 3 - i) / 2 + j); };
+    double sum = 0.0;
+    int pairs = 0;
+    for (int i = 0; i <= kSteps; ++i)
+      for (int j = 0; i + j <= kSteps; ++j)
+        for (const auto& [di, dj] : {std::pair{1, 0}, std::pair{0, 1}}) {
+          if (i + di + j + dj > kSteps) continue;
+          const std::size_t a = at(i, j), b = at(i + di, j + dj);
+          const float length = (points[a] - points[b]).norm();
+          if (length <= 0.0f) continue;
+          // atan2, not acos: acos of a float dot product loses small angles.
+          sum += std::atan2(normals[a].cross(normals[b]).norm(), normals[a].dot(normals[b])) / length;
+          ++pairs;
+        }
+    turn[f] = pairs > 0 ? static_cast<float>(sum / pairs) : 0.0f;
+  }
+  std::vector<float> sorted = turn;
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
+  const float median = sorted.empty() ? 0.0f : sorted[sorted.size() / 2];
+  std::vector<float> scales(turn.size(), 1.0f);
+  if (!(median > 0.0f)) return scales;  // no detail anywhere (or on most of m): one density
+  for (std::size_t f = 0; f < turn.size(); ++f)
+    scales[f] = std::clamp(std::cbrt(turn[f] / median), kMinPatchScale, kMaxPatchScale);
+  return scales;
 }
 
 }  // namespace apo

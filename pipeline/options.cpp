@@ -54,7 +54,7 @@ Json renderJson(const RenderOptions& o) {
 }
 
 Json exportJson(const ExportOptions& o) {
-  return {{"no-export", !o.enabled}, {"map-size", o.mapSize}, {"gutter", o.gutter}, {"draco", o.draco}, {"no-color", !o.color}};
+  return {{"no-export", !o.enabled}, {"map-size", o.mapSize}, {"gutter", o.gutter}, {"draco", o.draco}, {"no-color", !o.color}, {"patch-size", o.detailSizing ? "detail" : "uniform"}};
 }
 
 }  // namespace

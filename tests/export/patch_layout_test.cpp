@@ -50,10 +50,14 @@ float distanceToTriangle(const std::array<Vec2f, 3>& t, const Vec2f& q) {
   return best;
 }
 
-TEST(PatchLayout, EveryTriangleIsLaidFlatUnshearedInsideTheMapApartFromTheOthers) {
-  const Scan mesh = unevenSphere();
-  const auto atlas = packTrianglePatches(mesh, 512, 256, 2);
+// One density for all (no scales), or each patch at its own scale of it.
+void expectAPackedLayout(const Scan& mesh, const std::vector<float>& scales) {
+  const auto atlas = packTrianglePatches(mesh, 512, 256, 2, scales);
   ASSERT_TRUE(atlas.ok()) << atlas.error().message;
+  ASSERT_EQ(atlas->scales.size(), mesh.triangles.size());
+  if (!scales.empty()) {
+    EXPECT_EQ(atlas->scales, scales);
+  }
   ASSERT_EQ(atlas->corners.size(), mesh.triangles.size());
   EXPECT_GT(atlas->texelsPerUnit, 0.0f);
   const auto& p = mesh.points.positions;
@@ -61,9 +65,10 @@ TEST(PatchLayout, EveryTriangleIsLaidFlatUnshearedInsideTheMapApartFromTheOthers
   for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
     const auto& t = mesh.triangles[f];
     const auto& c = atlas->corners[f];
-    // Each edge keeps its length, scaled by the one density: no shear.
+    // Each edge keeps its length, scaled by the patch's density: no shear.
+    const float density = atlas->texelsPerUnit * (scales.empty() ? 1.0f : scales[f]);
     for (int k = 0; k < 3; ++k) {
-      const float model = (p[t[(k + 1) % 3]] - p[t[k]]).norm() * atlas->texelsPerUnit;
+      const float model = (p[t[(k + 1) % 3]] - p[t[k]]).norm() * density;
       const float flat = (c[static_cast<std::size_t>((k + 1) % 3)] - c[static_cast<std::size_t>(k)]).norm();
       EXPECT_NEAR(flat, model, 1e-3f * model + 1e-4f) << "triangle " << f << " edge " << k;
     }
@@ -98,10 +103,54 @@ TEST(PatchLayout, EveryTriangleIsLaidFlatUnshearedInsideTheMapApartFromTheOthers
   EXPECT_LT(atlas->usedShare, 0.7);
 
   // The same layout every time.
-  const auto again = packTrianglePatches(mesh, 512, 256, 2);
+  const auto again = packTrianglePatches(mesh, 512, 256, 2, scales);
   ASSERT_TRUE(again.ok());
   EXPECT_EQ(again->corners, atlas->corners);
 }
+
+TEST(PatchLayout, EveryTriangleIsLaidFlatUnshearedInsideTheMapApartFromTheOthers) {
+  const Scan mesh = unevenSphere();
+  expectAPackedLayout(mesh, {});
+  // Scales from 0.5 to 2, as detailPatchScales gives them.
+  std::vector<float> scales;
+  for (std::size_t f = 0; f < mesh.triangles.size(); ++f) scales.push_back(0.5f + 1.5f * static_cast<float>((f * 31) % 7) / 6.0f);
+  expectAPackedLayout(mesh, scales);
+  EXPECT_EQ(packTrianglePatches(mesh, 512, 256, 2, {1.0f, 2.0f}).error().kind, ErrorKind::Internal);
+}
+
+// Patch scales: a triangle whose normals turn k times faster than
+// another's gets a patch cbrt(k) times as dense, within [0.5, 2]; a field
+// without detail gives one density.
+TEST(PatchLayout, PatchesAreSizedByTheCubeRootOfTheDetailTheyCover) {
+  // Two equal triangles apart on the plane z = 0.
+  Scan mesh;
+  mesh.points.positions = {Vec3f(0, 0, 0), Vec3f(1, 0, 0), Vec3f(0, 1, 0), Vec3f(5, 0, 0), Vec3f(6, 0, 0), Vec3f(5, 1, 0)};
+  mesh.points.normals.assign(6, Vec3f::UnitZ());
+  mesh.triangles = {{0, 1, 2}, {3, 4, 5}};
+  // The normal turns about y by rate(x) radians per unit of x: 0.01 on the
+  // first triangle, `fast` times that on the second.
+  const auto turning = [](float fast) {
+    return [fast](const Vec3f& p, const Vec3f&) {
+      const float angle = p.x() < 3.0f ? 0.01f * p.x() : 0.01f * fast * (p.x() - 5.0f);
+      return Vec3f(std::sin(angle), 0.0f, std::cos(angle));
+    };
+  };
+  // The median of two is the larger: the fast one at scale 1.
+  std::vector<float> scales = detailPatchScales(mesh, turning(8.0f));
+  ASSERT_EQ(scales.size(), 2u);
+  EXPECT_NEAR(scales[0], 0.5f, 1e-3f);
+  EXPECT_NEAR(scales[1], 1.0f, 1e-6f);
+  scales = detailPatchScales(mesh, turning(1.0f / 3.375f));  // the first is faster by 1.5^3
+  EXPECT_NEAR(scales[0], 1.0f, 1e-6f);
+  EXPECT_NEAR(scales[1], 1.0f / 1.5f, 1e-3f);
+  scales = detailPatchScales(mesh, turning(1000.0f));  // clamped
+  EXPECT_NEAR(scales[0], kMinPatchScale, 1e-6f);
+  // m's own normal everywhere: no detail, one density.
+  scales = detailPatchScales(mesh, [](const Vec3f&, const Vec3f& coarse) { return coarse; });
+  EXPECT_EQ(scales, std::vector<float>(2, 1.0f));
+}
+
+
 
 TEST(PatchLayout, RefusesSizesOutOfRangeAndMeshesWithoutArea) {
   const Scan mesh = test::makeIcosphere(1);
