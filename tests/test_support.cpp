@@ -318,4 +318,11 @@ SurfacePoint BruteForceClosestPoint::closestPoint(const Vec3f& query) const {
   return {p[nearest], detail_.points.normals[nearest]};
 }
 
+std::array<float, 3> randomBarycentrics(std::mt19937& random) {
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+  float a = unit(random), b = unit(random);
+  if (a + b > 1.0f) a = 1.0f - a, b = 1.0f - b;
+  return {1.0f - a - b, a, b};
+}
+
 }  // namespace apo::test

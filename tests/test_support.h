@@ -37,6 +37,9 @@ CommandResult runApo(const std::string& arguments);
 #include "core/geometry.h"
 #include "core/ray_caster.h"
 
+#include <array>
+#include <random>
+
 namespace apo::test {
 
 // Brute-force ray caster, the independent reference for Embree: every ray
@@ -98,5 +101,9 @@ std::vector<Vec3f> randomCubePoints(std::size_t count, std::uint64_t seed);
 
 // Points on the unit sphere (Fibonacci lattice), deterministic.
 std::vector<Vec3f> fibonacciSpherePoints(std::size_t count);
+
+// Barycentrics of a point uniformly random on a triangle (the square's two
+// halves folded onto one), drawn from `random`.
+std::array<float, 3> randomBarycentrics(std::mt19937& random);
 
 }  // namespace apo::test

@@ -213,13 +213,10 @@ TEST(ExportColours, AColouredScansColoursBecomeTheBaseColourMap) {
   ASSERT_EQ(image.width, 256);
   const std::vector<float> positions = read.attribute("POSITION"), uvs = read.attribute("TEXCOORD_0");
   std::mt19937 random(5);
-  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
   double sum = 0.0;
   std::size_t count = 0;
   for (std::size_t f = 0; f < positions.size() / 9; ++f) {
-    float a = unit(random), b = unit(random);
-    if (a + b > 1.0f) a = 1.0f - a, b = 1.0f - b;
-    const std::array<float, 3> w{1.0f - a - b, a, b};
+    const std::array<float, 3> w = test::randomBarycentrics(random);
     Vec3f point = Vec3f::Zero();
     Eigen::Vector2f uv = Eigen::Vector2f::Zero();
     for (std::size_t k = 0; k < 3; ++k) {

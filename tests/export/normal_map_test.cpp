@@ -59,14 +59,11 @@ struct Measured {
 // The decoded normal against the field at random points of every triangle.
 Measured decodedAgainstField(const Scan& mesh, const GltfMesh& gltf, const NormalMap& map, const NormalField& field) {
   std::mt19937 random(7);
-  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
   Measured measured;
   std::size_t count = 0;
   for (std::size_t f = 0; f < mesh.triangles.size(); ++f)
     for (int s = 0; s < 20; ++s) {
-      float a = unit(random), b = unit(random);
-      if (a + b > 1.0f) a = 1.0f - a, b = 1.0f - b;
-      const std::array<float, 3> w{1.0f - a - b, a, b};
+      const std::array<float, 3> w = test::randomBarycentrics(random);
       Vec3f point = Vec3f::Zero(), coarse = Vec3f::Zero();
       for (std::size_t k = 0; k < 3; ++k) {
         point += w[k] * gltf.positions[gltf.indices[3 * f + k]];
@@ -148,14 +145,11 @@ TEST(ColorMap, AViewerSamplesTheScansColourUpToTexels) {
   ASSERT_EQ(map->rgb.size(), 512u * 512u * 3u);
   EXPECT_GT(asked, static_cast<std::size_t>(atlas->usedShare * 512 * 512));  // every texel of every patch, gutters too
   std::mt19937 random(11);
-  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
   double sum = 0.0, worst = 0.0;
   std::size_t count = 0;
   for (std::size_t f = 0; f < mesh.triangles.size(); ++f)
     for (int s = 0; s < 10; ++s) {
-      float a = unit(random), b = unit(random);
-      if (a + b > 1.0f) a = 1.0f - a, b = 1.0f - b;
-      const std::array<float, 3> w{1.0f - a - b, a, b};
+      const std::array<float, 3> w = test::randomBarycentrics(random);
       Vec3f point = Vec3f::Zero();
       Vec2f uv = Vec2f::Zero();
       for (std::size_t k = 0; k < 3; ++k) {
