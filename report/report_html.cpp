@@ -89,6 +89,21 @@ std::string bytesText(std::optional<double> bytes) {
   return fmt::format("{:.2f} GiB", b / (1024.0 * 1024.0 * 1024.0));
 }
 
+// The export's own decisions (docs/export.md): how its patches were sized,
+// and whether the scan's colours became the base colour.
+std::string patchSizingText(const Json* exported) {
+  if (textAt(exported, {"patch_size", "rule"}).value_or("") != "detail") return "";
+  return fmt::format(", each patch sized by the detail it covers, {} to {}&times; the density of a triangle of median detail",
+                     fixed(numberAt(exported, {"patch_size", "smallest_scale"}), 2),
+                     fixed(numberAt(exported, {"patch_size", "largest_scale"}), 2));
+}
+
+std::string baseColorText(const Json* exported) {
+  const Json* color = at(exported, {"base_color"});
+  if (color == nullptr || !color->is_object()) return "The scan has no colours (or --no-color): the base colour is grey.";
+  return fmt::format("The scan's colours are its base colour map ({} of PNG).", bytesText(numberAt(color, {"png_bytes"})));
+}
+
 std::string seconds(std::optional<double> s) {
   if (!s) return kNone;
   return *s < 10.0 ? fmt::format("{:.2f} s", *s) : fmt::format("{:.1f} s", *s);
@@ -535,11 +550,12 @@ std::string verdict(const Json& manifest) {
   const Json* exported = results(manifest, "export");
   if (const std::optional<double> glbBytes = numberAt(exported, {"glb_bytes"})) {
     html += fmt::format("<p>The glTF asset <a href=\"{}\">{}</a> ({}) carries m with a {} &times; {} tangent-space normal "
-                        "map made from the APO, one patch per triangle ({} of the texels), for any glTF 2.0 viewer.</p>\n",
+                        "map made from the APO, one patch per triangle ({} of the texels{}), for any glTF 2.0 viewer. {}</p>\n",
                         htmlEscape(urlPathEscape(textAt(&manifest, {"files", "glb"}).value_or("asset.glb"))),
                         escaped(textAt(&manifest, {"files", "glb"})), bytesText(glbBytes),
                         count(numberAt(exported, {"map", "width"})), count(numberAt(exported, {"map", "height"})),
-                        percentText(numberAt(exported, {"used_share"})));
+                        percentText(numberAt(exported, {"used_share"})), patchSizingText(exported),
+                        baseColorText(exported));
   }
   const std::optional<double> dense = denseTriangles(manifest), coarse = coarseTriangles(manifest);
   if (dense && coarse && *coarse > 0.0)

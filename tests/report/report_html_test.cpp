@@ -265,6 +265,26 @@ TEST(ReportHtml, SaysWhatTheApoWasBakedFromAndWhy) {
   EXPECT_THAT(qaReportHtml(m), HasSubstr("<td>baked from</td><td class=\"n\">mesh (auto: the scan is a mesh)</td>"));
 }
 
+// The export's own decisions: patches sized by detail, the scan's colours
+// as the base colour map, or grey without them.
+TEST(ReportHtml, SaysHowTheGlbWasMade) {
+  Json m = succeededManifest("mug.pcd", 1);
+  m["files"]["glb"] = "asset.glb";
+  m["results"]["export"] = {{"glb_bytes", 3246236},
+                            {"map", {{"width", 1024}, {"height", 1024}}},
+                            {"used_share", 0.33},
+                            {"patch_size", {{"rule", "detail"}, {"smallest_scale", 0.5}, {"largest_scale", 2.0}}},
+                            {"base_color", {{"source", "scan colours"}, {"png_bytes", 1424420}}}};
+  std::string html = qaReportHtml(m);
+  EXPECT_THAT(html, HasSubstr("each patch sized by the detail it covers, 0.50 to 2.00&times;"));
+  EXPECT_THAT(html, HasSubstr("The scan's colours are its base colour map (1.4 MiB of PNG)."));
+  m["results"]["export"]["base_color"] = nullptr;
+  m["results"]["export"]["patch_size"]["rule"] = "uniform";
+  html = qaReportHtml(m);
+  EXPECT_THAT(html, HasSubstr("the base colour is grey"));
+  EXPECT_THAT(html, Not(HasSubstr("sized by the detail")));
+}
+
 TEST(ReportHtml, FailedRunShowsTheErrorAndNotRunSections) {
   const std::string html = qaReportHtml(failedAfterIngest("scan.pcd", "no point left after cleaning"));
   EXPECT_THAT(html, HasSubstr("class=\"banner bad\">failed at stage <b>reconstruct</b>: no point left after cleaning"));
