@@ -191,8 +191,9 @@ ReadGlb readGlb(const fs::path& path) {
 // A coloured mesh scan: apo run's GLB carries its colours as the material's
 // base colour, on the normal map's patches, as a viewer samples them (the
 // PNG decoded by stb_image, bilinear at interpolated UVs) within a few
-// levels of the paint; the Khronos validator accepts the file; `apo export`
-// of the run folder writes the same bytes; --no-color leaves the colour out.
+// levels of the paint; the Khronos validator accepts the file; a run on one
+// thread and `apo export` of the run folder write the same bytes; --no-color
+// leaves the colour out.
 TEST(ExportColours, AColouredScansColoursBecomeTheBaseColourMap) {
   const fs::path dir = test::freshTempDir();
   Scan scan = test::BumpySphere().mesh(4);
@@ -245,6 +246,12 @@ TEST(ExportColours, AColouredScansColoursBecomeTheBaseColourMap) {
   EXPECT_EQ(report["errors"], 0) << report["messages"].dump();
   EXPECT_EQ(report["warnings"], 0) << report["messages"].dump();
   EXPECT_EQ(report["infos"], 0) << report["messages"].dump();
+
+  // On one thread, the same bytes (the maps are filled on every core).
+  const auto single = apo(fmt::format("run '{}' -o '{}' --faces 300 --size 64 --views 2 --frames 1 --map-size 256 --threads 1",
+                                      (dir / "painted.ply").string(), (dir / "run1").string()));
+  ASSERT_EQ(single.exitCode, 0) << single.output;
+  EXPECT_EQ(*readFileBytes(dir / "run1" / "asset.glb"), *readFileBytes(glb));
 
   const fs::path exported = dir / "exported.glb";
   ASSERT_EQ(apo(fmt::format("export '{}' -o '{}' --map-size 256", (dir / "run").string(), exported.string())).exitCode, 0);
