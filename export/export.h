@@ -43,7 +43,6 @@ struct PatchAtlas {
 Result<PatchAtlas> packTrianglePatches(const Scan& coarse, std::uint32_t width, std::uint32_t height, int gutter = 2,
                                        const std::vector<float>& scales = {});
 
-
 // m as a glTF primitive: three vertices per triangle (a patch each), m's
 // area-weighted vertex normals, a tangent per vertex (the direction of +u in
 // the triangle's plane, made orthogonal to the vertex normal; w = +1) and the
