@@ -1,6 +1,7 @@
 #include "ingest/face_orientation.h"
 
 #include "adapters/flann/flann_search.h"
+#include "core/mesh_edges.h"
 
 #include <algorithm>
 #include <cmath>
@@ -25,23 +26,14 @@ constexpr std::uint64_t kClearMajority = 2;
 // Whether each component is closed: every undirected edge used by exactly
 // two of its triangles.
 std::vector<char> closedComponents(const Scan& mesh, const std::vector<std::uint32_t>& component, std::uint32_t count) {
-  std::vector<std::pair<std::uint64_t, std::uint32_t>> edges;  // (edge key, component)
-  edges.reserve(3 * mesh.triangles.size());
-  for (std::size_t i = 0; i < mesh.triangles.size(); ++i) {
-    const Triangle& t = mesh.triangles[i];
-    for (int k = 0; k < 3; ++k) {
-      const std::uint64_t a = t[k], b = t[(k + 1) % 3];
-      edges.emplace_back(std::min(a, b) << 32 | std::max(a, b), component[i]);
-    }
-  }
-  std::sort(edges.begin(), edges.end());
   std::vector<char> closed(count, 1);
-  for (std::size_t i = 0; i < edges.size();) {
-    std::size_t j = i;
-    while (j < edges.size() && edges[j].first == edges[i].first) ++j;
-    if (j - i != 2) closed[edges[i].second] = 0;
-    i = j;
-  }
+  const std::vector<TriangleSide> sides = sortedSides(mesh.triangles);
+  forEachEdge(sides, [&](std::size_t first, std::size_t last) {
+    if (last - first == 2) return;
+    std::uint32_t lowest = component[sides[first].triangle];
+    for (std::size_t i = first + 1; i < last; ++i) lowest = std::min(lowest, component[sides[i].triangle]);
+    closed[lowest] = 0;
+  });
   return closed;
 }
 

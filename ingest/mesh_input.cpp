@@ -1,6 +1,7 @@
 #include "ingest/mesh_input.h"
 
 #include "adapters/flann/flann_search.h"
+#include "core/mesh_edges.h"
 #include "core/surface_limits.h"
 
 #include <algorithm>
@@ -23,30 +24,21 @@ struct EdgeFigures {
 };
 
 EdgeFigures edgeFigures(const Scan& mesh) {
-  std::vector<std::uint64_t> edges;
-  edges.reserve(3 * mesh.triangles.size());
-  for (const Triangle& t : mesh.triangles)
-    for (int k = 0; k < 3; ++k) {
-      const std::uint64_t a = t[k], b = t[(k + 1) % 3];
-      edges.push_back(std::min(a, b) << 32 | std::max(a, b));
-    }
-  std::sort(edges.begin(), edges.end());
+  const std::vector<TriangleSide> sides = sortedSides(mesh.triangles);
   std::size_t unique = 0, boundary = 0;
   std::vector<float> lengths;
   EdgeFigures figures;
   figures.onBoundary.assign(mesh.points.size(), 0);
-  for (std::size_t i = 0; i < edges.size();) {
-    std::size_t j = i + 1;
-    while (j < edges.size() && edges[j] == edges[i]) ++j;
+  const auto& p = mesh.points.positions;
+  forEachEdge(sides, [&](std::size_t first, std::size_t last) {
+    const TriangleSide& side = sides[first];
     ++unique;
-    if (j - i == 1) {
+    if (last - first == 1) {
       ++boundary;
-      figures.onBoundary[edges[i] >> 32] = figures.onBoundary[edges[i] & 0xFFFFFFFFu] = 1;
+      figures.onBoundary[side.from()] = figures.onBoundary[side.to()] = 1;
     }
-    const auto& p = mesh.points.positions;
-    lengths.push_back((p[edges[i] >> 32] - p[edges[i] & 0xFFFFFFFFu]).norm());
-    i = j;
-  }
+    lengths.push_back((p[side.from()] - p[side.to()]).norm());
+  });
   if (unique == 0) return figures;
   figures.boundaryFraction = static_cast<double>(boundary) / static_cast<double>(unique);
   const auto middle = lengths.begin() + static_cast<std::ptrdiff_t>(lengths.size() / 2);

@@ -3,89 +3,32 @@
 // even sampling of a surface, for the distance measures.
 #include "reconstruct/mesh_quality.h"
 
+#include "core/mesh_edges.h"
 #include "reconstruct/reconstruct.h"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <numeric>
 #include <random>
-#include <tuple>
 #include <utility>
 #include <vector>
 
 namespace apo {
 namespace {
 
-// Union-find whose roots are the smallest index of each set, so that every
-// answer depends on the input order only.
-class DisjointSets {
- public:
-  explicit DisjointSets(std::size_t count) : parent_(count) { std::iota(parent_.begin(), parent_.end(), 0u); }
-
-  std::uint32_t find(std::uint32_t i) {
-    while (parent_[i] != i) i = parent_[i] = parent_[parent_[i]];
-    return i;
-  }
-  void unite(std::uint32_t a, std::uint32_t b) {
-    a = find(a);
-    b = find(b);
-    if (a < b) parent_[b] = a;
-    if (b < a) parent_[a] = b;
-  }
-
- private:
-  std::vector<std::uint32_t> parent_;
-};
-
-// One side of one triangle: the undirected edge it lies on and where it is.
-// Sorted by edge, the sides of each edge are adjacent; that is the edge map,
-// without a hash table and in a deterministic order.
-struct Side {
-  std::uint64_t edge;     // smaller vertex << 32 | larger vertex
-  std::uint32_t triangle;
-  std::uint32_t corner;   // the side runs from corner to corner + 1 (mod 3)
-};
-
-std::vector<Side> sortedSides(const std::vector<Triangle>& triangles) {
-  std::vector<Side> sides;
-  sides.reserve(3 * triangles.size());
-  for (std::uint32_t t = 0; t < triangles.size(); ++t)
-    for (std::uint32_t c = 0; c < 3; ++c) {
-      const std::uint32_t a = triangles[t][c], b = triangles[t][(c + 1) % 3];
-      if (a == b) continue;  // a collapsed side lies on no edge
-      sides.push_back({(std::uint64_t{std::min(a, b)} << 32) | std::max(a, b), t, c});
-    }
-  std::sort(sides.begin(), sides.end(), [](const Side& x, const Side& y) {
-    return std::tie(x.edge, x.triangle, x.corner) < std::tie(y.edge, y.triangle, y.corner);
-  });
-  return sides;
-}
-
-// Calls visit(first, last) for each run of sides on the same edge.
-template <class Visit>
-void forEachEdge(const std::vector<Side>& sides, Visit&& visit) {
-  for (std::size_t first = 0; first < sides.size();) {
-    std::size_t last = first + 1;
-    while (last < sides.size() && sides[last].edge == sides[first].edge) ++last;
-    visit(first, last);
-    first = last;
-  }
-}
-
 // Corner k of triangle t is 3t + k; a side's corners are its two ends.
 std::uint32_t cornerId(std::uint32_t triangle, std::uint32_t corner) { return 3 * triangle + corner; }
-std::uint32_t startCorner(const Side& s) { return cornerId(s.triangle, s.corner); }
-std::uint32_t endCorner(const Side& s) { return cornerId(s.triangle, (s.corner + 1) % 3); }
+std::uint32_t startCorner(const TriangleSide& s) { return cornerId(s.triangle, s.corner); }
+std::uint32_t endCorner(const TriangleSide& s) { return cornerId(s.triangle, (s.corner + 1) % 3); }
 
 // Corners at the same vertex are in one fan when their triangles are linked
 // through edges at that vertex. A manifold vertex has one fan; a bow-tie
 // vertex has two.
-DisjointSets cornerFans(const std::vector<Triangle>& triangles, const std::vector<Side>& sides) {
+DisjointSets cornerFans(const std::vector<Triangle>& triangles, const std::vector<TriangleSide>& sides) {
   DisjointSets fans(3 * triangles.size());
   forEachEdge(sides, [&](std::size_t first, std::size_t last) {
     for (std::size_t i = first + 1; i < last; ++i) {
-      const Side &a = sides[first], &b = sides[i];
+      const TriangleSide &a = sides[first], &b = sides[i];
       // Each end of b matches the end of a that holds the same vertex.
       const bool sameDirection = triangles[a.triangle][a.corner] == triangles[b.triangle][b.corner];
       fans.unite(startCorner(a), sameDirection ? startCorner(b) : endCorner(b));
@@ -112,7 +55,7 @@ std::uint64_t countNonManifoldVertices(const std::vector<Triangle>& triangles, D
 // A boundary loop is a chain of boundary sides; consecutive sides meet at a
 // vertex within one fan, so chaining through fans (not bare vertices) keeps
 // two loops that touch at a pinched vertex apart.
-std::uint64_t countBoundaryLoops(DisjointSets fans, const std::vector<Side>& sides) {
+std::uint64_t countBoundaryLoops(DisjointSets fans, const std::vector<TriangleSide>& sides) {
   std::vector<std::uint32_t> boundaryCorners;
   forEachEdge(sides, [&](std::size_t first, std::size_t last) {
     if (last - first != 1) return;
@@ -135,7 +78,7 @@ std::uint64_t countUsedVertices(const Scan& mesh) {
   return static_cast<std::uint64_t>(std::count(used.begin(), used.end(), 1));
 }
 
-std::vector<std::uint32_t> componentsOverSides(std::size_t triangleCount, const std::vector<Side>& sides,
+std::vector<std::uint32_t> componentsOverSides(std::size_t triangleCount, const std::vector<TriangleSide>& sides,
                                                std::uint32_t& componentCount) {
   DisjointSets sets(triangleCount);
   forEachEdge(sides, [&](std::size_t first, std::size_t last) {
@@ -170,7 +113,7 @@ MeshQuality measureMesh(const Scan& mesh) {
   MeshQuality quality;
   quality.vertices = mesh.points.size();
   quality.triangles = mesh.triangles.size();
-  const std::vector<Side> sides = sortedSides(mesh.triangles);
+  const std::vector<TriangleSide> sides = sortedSides(mesh.triangles);
   std::uint64_t edges = 0;
   forEachEdge(sides, [&](std::size_t first, std::size_t last) {
     ++edges;

@@ -1,5 +1,6 @@
 #include "adapters/meshopt/meshopt_simplify.h"
 
+#include "core/mesh_edges.h"
 #include "core/mesh_edit.h"
 
 #include <meshoptimizer.h>
@@ -51,29 +52,12 @@ constexpr std::size_t kMaxPocketTriangles = 64;
 // Returns how many pockets were removed.
 std::uint64_t dropPinchedPockets(std::vector<Triangle>& triangles, std::size_t vertexCount) {
   // Triangles joined through edges that exactly two of them share.
-  std::vector<std::pair<std::uint64_t, std::uint32_t>> edges;  // (edge key, triangle)
-  edges.reserve(3 * triangles.size());
-  for (std::uint32_t i = 0; i < triangles.size(); ++i)
-    for (int k = 0; k < 3; ++k) {
-      const std::uint64_t a = triangles[i][k], b = triangles[i][(k + 1) % 3];
-      edges.emplace_back(std::min(a, b) << 32 | std::max(a, b), i);
-    }
-  std::sort(edges.begin(), edges.end());
-  std::vector<std::uint32_t> parent(triangles.size());
-  std::iota(parent.begin(), parent.end(), 0u);
-  auto root = [&](std::uint32_t i) {
-    while (parent[i] != i) i = parent[i] = parent[parent[i]];
-    return i;
-  };
-  for (std::size_t i = 0; i < edges.size();) {
-    std::size_t j = i + 1;
-    while (j < edges.size() && edges[j].first == edges[i].first) ++j;
-    if (j - i == 2) {
-      const std::uint32_t a = root(edges[i].second), b = root(edges[i + 1].second);
-      if (a != b) parent[std::max(a, b)] = std::min(a, b);
-    }
-    i = j;
-  }
+  DisjointSets pieces(triangles.size());
+  const std::vector<TriangleSide> sides = sortedSides(triangles);
+  forEachEdge(sides, [&](std::size_t first, std::size_t last) {
+    if (last - first == 2) pieces.unite(sides[first].triangle, sides[first + 1].triangle);
+  });
+  const auto root = [&](std::uint32_t i) { return pieces.find(i); };
   std::vector<std::uint32_t> size(triangles.size(), 0);
   for (std::uint32_t i = 0; i < triangles.size(); ++i) ++size[root(i)];
   // A small piece touching another piece at a vertex is a pocket.
