@@ -1,6 +1,7 @@
 // `apo export RUNDIR -o asset.glb`: a finished `apo run` folder as a glTF 2.0
 // binary: m with a tangent-space normal map on packed per-triangle patches,
-// filled from the APO's filtered lookup (docs/export.md).
+// filled from the APO's filtered lookup, and the scan's colours on the same
+// patches (docs/export.md).
 #include "cli/command_support.h"
 #include "cli/stage_options.h"
 #include "export/export.h"
@@ -148,7 +149,9 @@ int runExport(const ExportCommand& command) {
 void addExportCommand(CLI::App& app, int& exitCode) {
   auto command = std::make_shared<ExportCommand>();
   CLI::App* sub = app.add_subcommand(
-      "export", "A finished run as a glTF 2.0 binary: m with a tangent-space normal map made from the APO, no UV unwrap");
+      "export",
+      "A finished run as a glTF 2.0 binary: m with a tangent-space normal map made from the APO (and the scan's "
+      "colours as its base colour, when it has any), no UV unwrap");
   sub->add_option("rundir", command->runDir, "The folder of a finished apo run (manifest.json, m.ply, scan.apo)")->required();
   sub->add_option("-o,--out", command->output, "The GLB file to write")->required();
   addExportOptions(*sub, command->options);
