@@ -276,8 +276,7 @@ Result<Bake> bakeWith(const DetailSurface& detail, const CoarseSurface& coarseSu
   const Aabb box = boundingBox(coarse.points.positions);
   const UnitCubeTransform transform = unitCubeAround(box);
   const octree::CoarseMesh coarseUnit = coarseInUnitCube(coarse, transform);
-  const std::vector<Vec3f> coarseNormals =
-      coarse.points.normals.size() == coarse.points.size() ? coarse.points.normals : areaWeightedVertexNormals(coarse);
+  const std::vector<Vec3f> coarseNormals = vertexNormalsAsDrawn(coarse);
   const float reach = static_cast<float>(options.maxDistance * box.diagonal());
   const int completeDepth = options.completeDepth < 0 ? options.coarseDepth : options.completeDepth;
   const std::uint64_t maxTexels = budgetTexels(options.budget);

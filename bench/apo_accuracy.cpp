@@ -81,9 +81,7 @@ int run(int argc, char** argv) {
     return 2;
   }
   if (detail->points.normals.size() != detail->points.size()) detail->points.normals = apo::areaWeightedVertexNormals(*detail);
-  const std::vector<Vec3f> coarseNormals = coarse->points.normals.size() == coarse->points.size()
-                                               ? coarse->points.normals
-                                               : apo::areaWeightedVertexNormals(*coarse);
+  const std::vector<Vec3f> coarseNormals = apo::vertexNormalsAsDrawn(*coarse);
   auto closest = apo::makeFlannClosestPoint(*detail);
   if (!closest) return 2;
   const std::size_t count = argc > 4 ? std::strtoull(argv[4], nullptr, 10) : 200000;

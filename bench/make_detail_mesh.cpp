@@ -93,11 +93,6 @@ void writeOrDie(const std::string& path, const Scan& scan) {
   }
 }
 
-// The normals `apo bake` uses: the file's, else area-weighted vertex normals.
-std::vector<Vec3f> vertexNormals(const Scan& mesh) {
-  return mesh.points.normals.size() == mesh.points.size() ? mesh.points.normals : apo::areaWeightedVertexNormals(mesh);
-}
-
 double meanEdgeLength(const Scan& mesh) {
   double sum = 0.0;
   for (const apo::Triangle& t : mesh.triangles)
@@ -186,7 +181,7 @@ int sample(const Args& args) {
   const Scan m = readOrDie(args.positional[0]);
   const std::size_t count = std::stoull(args.positional[1]);
   std::mt19937_64 random(std::stoull(args.positional[2]));
-  const std::vector<Vec3f> normals = vertexNormals(m);
+  const std::vector<Vec3f> normals = apo::vertexNormalsAsDrawn(m);
   std::vector<double> cumulative;
   double total = 0.0;
   for (const apo::Triangle& t : m.triangles) {
@@ -286,7 +281,7 @@ int compare(const Args& args) {
                  baked.size());
     return 2;
   }
-  const std::vector<Vec3f> normals = vertexNormals(M);
+  const std::vector<Vec3f> normals = apo::vertexNormalsAsDrawn(M);
   const double reach = args.number("reach", 0.01) * apo::boundingBox(M.points.positions).diagonal();
 
   // Closest point: CGAL's AABB tree over M's triangles, in double.

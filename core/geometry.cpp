@@ -28,6 +28,10 @@ std::vector<Vec3f> areaWeightedVertexNormals(const Scan& mesh) {
   return normals;
 }
 
+std::vector<Vec3f> vertexNormalsAsDrawn(const Scan& mesh) {
+  return mesh.points.normals.size() == mesh.points.size() ? mesh.points.normals : areaWeightedVertexNormals(mesh);
+}
+
 double surfaceArea(const Scan& mesh) {
   const auto& p = mesh.points.positions;
   double area = 0.0;

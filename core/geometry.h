@@ -93,6 +93,10 @@ Aabb boundingBox(const std::vector<Vec3f>& positions);
 // normals; vertices in no triangle (or only degenerate ones) get +z.
 std::vector<Vec3f> areaWeightedVertexNormals(const Scan& mesh);
 
+// A mesh's vertex normals as the renderer, the bake and the export take them:
+// the file's own (one per vertex), else areaWeightedVertexNormals.
+std::vector<Vec3f> vertexNormalsAsDrawn(const Scan& mesh);
+
 // Total area of a mesh's triangles.
 double surfaceArea(const Scan& mesh);
 

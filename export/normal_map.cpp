@@ -122,9 +122,7 @@ void pushPull(std::vector<Vec3f>& values, std::vector<float>& weights, std::uint
 
 GltfMesh patchMesh(const Scan& coarse, const PatchAtlas& atlas) {
   const auto& p = coarse.points.positions;
-  const std::vector<Vec3f> vertexNormals = coarse.points.normals.size() == coarse.points.size()
-                                               ? coarse.points.normals
-                                               : areaWeightedVertexNormals(coarse);
+  const std::vector<Vec3f> vertexNormals = vertexNormalsAsDrawn(coarse);
   GltfMesh mesh;
   const Vec2f scale(1.0f / static_cast<float>(atlas.width), 1.0f / static_cast<float>(atlas.height));
   for (std::size_t f = 0; f < coarse.triangles.size(); ++f) {

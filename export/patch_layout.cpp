@@ -219,9 +219,7 @@ Result<PatchAtlas> packTrianglePatches(const Scan& coarse, std::uint32_t width, 
 std::vector<float> detailPatchScales(const Scan& coarse, const NormalField& field) {
   constexpr int kSteps = 4;  // lattice of points at barycentrics (i, j, k) / kSteps
   const auto& p = coarse.points.positions;
-  const std::vector<Vec3f> vertexNormals = coarse.points.normals.size() == coarse.points.size()
-                                               ? coarse.points.normals
-                                               : areaWeightedVertexNormals(coarse);
+  const std::vector<Vec3f> vertexNormals = vertexNormalsAsDrawn(coarse);
   std::vector<float> turn(coarse.triangles.size(), 0.0f);
   for (std::size_t f = 0; f < coarse.triangles.size(); ++f) {
     const Triangle& t = coarse.triangles[f];

@@ -81,8 +81,7 @@ void describeInterleaved(const gl::Api& api, std::initializer_list<GLint> widths
 }
 
 GpuGeometry uploadMesh(const gl::Api& api, const Scan& mesh) {
-  const std::vector<Vec3f> normals =
-      mesh.points.normals.size() == mesh.points.size() ? mesh.points.normals : areaWeightedVertexNormals(mesh);
+  const std::vector<Vec3f> normals = vertexNormalsAsDrawn(mesh);
   std::vector<float> interleaved;
   interleaved.reserve(6 * mesh.points.size());
   for (std::size_t i = 0; i < mesh.points.size(); ++i)

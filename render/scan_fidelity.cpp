@@ -28,10 +28,7 @@ struct Probe {
 // on every run), with m's interpolated normal.
 std::vector<Probe> probesOn(const Scan& coarse, std::size_t count) {
   const auto& p = coarse.points.positions;
-  // m's normals as the renderer draws them: its own, else from its faces.
-  const std::vector<Vec3f> n = coarse.points.normals.size() == coarse.points.size()
-                                   ? coarse.points.normals
-                                   : areaWeightedVertexNormals(coarse);
+  const std::vector<Vec3f> n = vertexNormalsAsDrawn(coarse);
   std::vector<double> cumulative;
   double total = 0.0;
   for (const Triangle& t : coarse.triangles) {
