@@ -15,11 +15,6 @@ namespace {
 using namespace cells;
 using texel::kEmptyCell;
 
-bool insideUnitCube(const Vec3f& p) {
-  // Written so NaN coordinates are outside too.
-  return (p.array() >= 0.0f).all() && (p.array() <= 1.0f).all();
-}
-
 // Grid coordinate of p in [0, 1] among n cells: ceil(p n) - 1, clamped, so a
 // point on a cell boundary goes to the lower cell like childIndex's
 // centre-plane rule (p n is exact in float: n is a power of two).
@@ -48,17 +43,6 @@ Lookup twoSidedResult(const ApoTexture& texture, std::uint64_t node, int depth, 
   Lookup result = textureResult(texture, node, node + static_cast<std::uint64_t>(side), depth, Vec3f::Zero());
   result.twoSided = true;
   return result;
-}
-
-// A neighbour's normal enters the blend when its walk reaches P's depth or
-// stops one level above; a coarser leaf's mean describes a region too far
-// from P (measured: docs/benchmarks.md, "Filtering"), a missing one nothing.
-// It must also face the side P is on (`facing`: m's normal at P, or P's own
-// cell's normal without m): across a part thinner than a cell, the next cell
-// holds the other side (measured on blade.off: 8.6 degrees mean filtered
-// against 1.5 unfiltered before this rule).
-bool isFilterNeighbour(const Lookup& neighbour, int ownDepth, const Vec3f& facing) {
-  return neighbour.found && neighbour.depth + 1 >= ownDepth && neighbour.normal.dot(facing) > 0.0f;
 }
 
 }  // namespace
@@ -112,24 +96,14 @@ Lookup lookupTextureFiltered(const ApoTexture& texture, const Vec3f& unitPoint, 
   // A leaf showing m's normal shows it unblended: its neighbours at its
   // depth are cells as large, whose means m beats there.
   if (!own.found || own.coarse) return own;
-  // The shader's float operations: lattice coordinates of P among the cell
-  // centres of its depth, the 8 corners around it, trilinear weights.
-  const float width = 1.0f / static_cast<float>(1u << own.depth);
-  const Eigen::Array3f lattice = unitPoint.array() / width - 0.5f;
-  const Eigen::Array3f base = lattice.floor();
-  const Eigen::Array3f t = lattice - base;
   const Vec3f facing = coarseNormal.squaredNorm() > 0.0f ? coarseNormal : own.normal;
-  Vec3f sum = Vec3f::Zero();
-  for (int corner = 0; corner < 8; ++corner) {
-    const Eigen::Array3f c((corner >> 2) & 1, (corner >> 1) & 1, corner & 1);
-    const Eigen::Array3f weight3 = (1.0f - t) * (1.0f - c) + t * c;
-    const Vec3f at = ((base + c + 0.5f) * width).matrix();
-    const Lookup neighbour = lookupTexture(texture, at, own.depth, coarseNormal);
-    sum += weight3.prod() * (isFilterNeighbour(neighbour, own.depth, facing) ? neighbour.normal : own.normal);
-  }
   Lookup filtered = own;
   // Zero only when every blended cell defers to m and the caller gave none.
-  filtered.normal = sum.squaredNorm() > 0.0f ? Vec3f(sum.normalized()) : Vec3f(Vec3f::Zero());
+  filtered.normal = blendTrilinear(unitPoint, own.depth, own.normal, [&](const Vec3f& at, int depth) -> std::optional<Vec3f> {
+    const Lookup neighbour = lookupTexture(texture, at, depth, coarseNormal);
+    if (!entersBlend(neighbour.found, neighbour.depth, neighbour.normal, depth, facing)) return std::nullopt;
+    return neighbour.normal;
+  });
   return filtered;
 }
 

@@ -182,6 +182,83 @@ std::uint64_t apoFileBytes(std::uint64_t usedTexels, bool withOrigin);
 // The texture as an RGBA PNG (the paper's figure 5).
 Status writeApoPng(const std::filesystem::path& path, const ApoTexture& texture);
 
+// ---- The N^3-tree (GPU Gems 2, chapter 37: Lefebvre, Hornus, Neyret) --------
+
+// The same octree stored as the chapter stores it (docs/n3tree-format.md):
+// an indirection pool, a 3D RGBA8 texture of indirection grids of N x N x N
+// cells, one grid per node of the N^3-tree; each cell is empty, holds a
+// leaf's data (the normal's three bytes) or points to a child grid by its
+// (u, v, w) place in the pool. A node of the N^3-tree at level L is the
+// octree's node at depth L log2(N); a leaf of the octree between two levels
+// fills all the cells it covers. The LOD pool, one RGBA8 cell per grid,
+// holds each node's average (the chapter's mip-mapping). Two-sided leaves
+// (format version 4 of the APO) point into a third texture of side pairs.
+struct N3Tree {
+  // Cell kinds, in the alpha channel (the chapter's 0, 0.5 and 1, and the
+  // two-sided leaves, whose axis is added to kTwoSided).
+  static constexpr std::uint8_t kEmpty = 0, kPointer = 128, kTwoSided = 192, kData = 255;
+  static constexpr int kSidesWidth = 1024;  // texels per row of the sides texture
+
+  UnitCubeTransform transform;
+  std::array<double, 3> origin = {0.0, 0.0, 0.0};  // the scan's local frame, as ApoTexture::origin
+  int n = 2;                                       // 2 (an octree) or 4
+  int levels = 0;                                  // deepest grid level + 1
+  NormalEncoding encoding = NormalEncoding::Oct24;
+  bool defersToCoarse = false;        // data cells may hold m's code (ApoTexture::defersToCoarse)
+  bool coarseAtInternalNodes = false; // LOD cells may hold m's code
+  std::array<std::uint32_t, 3> grids = {1, 1, 1};  // S_u, S_v, S_w: grids per axis of the pool, at most 256
+  std::uint32_t usedGrids = 1;        // grids in breadth-first order, grid g at (g % S_u, g / S_u % S_v, g / S_u / S_v)
+  std::uint32_t twoSidedLeaves = 0;
+  std::vector<std::uint8_t> pool;     // (N S_u) x (N S_v) x (N S_w) cells, x fastest, 4 bytes each
+  std::vector<std::uint8_t> lod;      // S_u x S_v x S_w cells
+  std::vector<std::uint8_t> sides;    // kSidesWidth x rows texels: leaf i's sides at 2i (side 0) and 2i + 1
+
+  int log2n() const { return n == 2 ? 1 : 2; }
+  std::array<std::uint32_t, 3> poolSize() const { return {n * grids[0], n * grids[1], n * grids[2]}; }
+  std::uint64_t poolCells() const;
+  std::uint32_t sidesRows() const { return (2 * twoSidedLeaves + kSidesWidth - 1) / kSidesWidth; }
+  std::uint64_t textureBytes() const { return pool.size() + lod.size() + sides.size(); }
+  bool needsCoarseNormals() const { return defersToCoarse || coarseAtInternalNodes || twoSidedLeaves > 0; }
+};
+
+// The octree as an N^3-tree of `n` (2 or 4) with the octree's own normals
+// (its nodes' normals are the LOD pool); Usage error for another n or when
+// the nodes need more than 256^3 grids or the pool more than `maxPoolSide`
+// cells per axis.
+Result<N3Tree> buildN3Tree(const Octree& octree, int n, NormalEncoding encoding, std::uint32_t maxPoolSide = 2048);
+
+// Where a walk of the N^3-tree stopped.
+struct N3Lookup {
+  bool found = false;
+  Vec3f normal = Vec3f::Zero();
+  std::uint64_t place = 0;  // the pool cell it read last (x + X (y + Y z)), or poolCells() + grid for a node's average
+  int depth = 0;            // octree depth of that cell (a node's average: the node's)
+  bool coarse = false, twoSided = false, average = false;
+  std::uint32_t reads = 0;  // texels read: one pool cell per level, plus the LOD or sides texel
+};
+
+// The chapter's tree lookup (section 1.2.2), as the shader does it: from
+// the root grid down, the cell of P in each grid (lower side on ties, like
+// childIndex), until a data cell; an empty cell, `maxDepth` (octree depth
+// of the node) or the pixel test of mip-mapping stops at the node's
+// average in the LOD pool. Not found outside the unit cube.
+N3Lookup lookupN3Tree(const N3Tree& tree, const Vec3f& unitPoint, int maxDepth = 255,
+                      const Vec3f& coarseNormal = Vec3f::Zero());
+// Linear interpolation as the chapter does it (section 1.3.3): 8 lookups at
+// the lattice of P's own cell, blended trilinearly; a sample outside the
+// tree, stopped more than one octree level above, or facing away from m's
+// normal takes P's own value (lookupTextureFiltered's rules).
+N3Lookup lookupN3TreeFiltered(const N3Tree& tree, const Vec3f& unitPoint, const Vec3f& coarseNormal = Vec3f::Zero());
+
+// The .n3t file (version 1, docs/n3tree-format.md): validated on read (every
+// header field, the SHA-256 of the payload, every pointer and cell kind).
+Status writeN3TreeFile(const std::filesystem::path& path, const N3Tree& tree);
+Result<N3Tree> readN3TreeFile(const std::filesystem::path& path);
+Result<N3Tree> parseN3TreeFile(std::string_view bytes);
+// The structure: cell kinds, pointers to later grids only (so a walk ends),
+// every grid but the root pointed to once, side indices in range.
+Status validateN3Tree(const N3Tree& tree);
+
 // ---- The layout for shaders -------------------------------------------------
 
 // GLSL definitions of the layout's constants (the empty grid cell, the oct24
@@ -189,5 +266,7 @@ Status writeApoPng(const std::filesystem::path& path, const ApoTexture& texture)
 // constants so that the shaders cannot drift from the encoder: every shader
 // that walks the texture starts with them. Valid in GLSL 4.50 and GLSL ES 3.00.
 std::string glslLayoutDefinitions();
+// The N^3-tree's cell kinds and limits as GLSL (N3_*), for its walk.
+std::string glslN3TreeDefinitions();
 
 }  // namespace apo

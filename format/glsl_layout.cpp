@@ -6,6 +6,8 @@
 
 #include <fmt/format.h>
 
+#include <bit>
+
 namespace apo {
 
 std::string glslLayoutDefinitions() {
@@ -24,6 +26,19 @@ std::string glslLayoutDefinitions() {
       texel::kEmptyCell, static_cast<int>(NormalEncoding::Xyz8), static_cast<int>(NormalEncoding::Oct24),
       texel::kXyzMaxLevel, texel::kOctBits, texel::kOctMaxLevel, texel::kOctMaxLevel, texel::kMaxWalkSteps,
       texel::kCoarseXyz8, texel::kCoarseOct24);
+}
+
+std::string glslN3TreeDefinitions() {
+  return fmt::format(
+      "// The N^3-tree's cell kinds (format/format.h N3Tree, generated).\n"
+      "const uint N3_EMPTY = {}u;\n"
+      "const uint N3_POINTER = {}u;\n"
+      "const uint N3_TWO_SIDED = {}u;\n"
+      "const uint N3_DATA = {}u;\n"
+      "const int N3_SIDES_WIDTH_SHIFT = {};\n"
+      "const int N3_MAX_LEVELS = {};\n",
+      N3Tree::kEmpty, N3Tree::kPointer, N3Tree::kTwoSided, N3Tree::kData, std::countr_zero(unsigned{N3Tree::kSidesWidth}),
+      texel::kMaxDepth);
 }
 
 }  // namespace apo

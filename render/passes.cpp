@@ -17,6 +17,7 @@
 #include <cmath>
 #include <memory>
 #include <numbers>
+#include <functional>
 #include <optional>
 #include <string>
 
@@ -125,13 +126,79 @@ Result<GpuGeometry> uploadSplats(const gl::Api& api, const PointSet& points) {
 
 enum class Walk { None, Plain, CountingFetches };
 
-std::string fragmentSource(std::string_view body, Walk walk) {
+// What the APO pass walks on m: the APO texture or the same octree as an
+// N^3-tree. Its GLSL (the layout's walk: `walk`, `normalAt`, the `Walk`
+// struct), its textures on units 0, 1, ... and its own uniforms; the
+// fragment bodies are the same for both.
+struct Layout {
+  std::string_view walkSource;
+  std::string definitions;
+  std::vector<std::pair<GLenum, gl::Texture>> textures;
+  std::function<void(const gl::Api&, GLuint)> setUniforms;
+  UnitCubeTransform transform;
+  NormalEncoding encoding = NormalEncoding::Oct24;
+  bool defersToCoarse = false;
+};
+
+Result<Layout> apoLayout(const gl::Context& context, const ApoTexture& apo) {
+  auto texture = gl::uploadApoTexture(context, apo);
+  if (!texture) return texture.error();
+  Layout layout{shaders::kApoWalk, {}, {}, {}, apo.transform, apo.encoding, apo.defersToCoarse};
+  layout.textures.emplace_back(GL_TEXTURE_2D, std::move(texture).value());
+  const std::uint32_t width = apo.width;
+  const int completeDepth = apo.completeDepth;
+  layout.setUniforms = [width, completeDepth](const gl::Api& api, GLuint program) {
+    api.Uniform1i(api.GetUniformLocation(program, "apoTexture"), 0);
+    api.Uniform1ui(api.GetUniformLocation(program, "widthMask"), width - 1);
+    api.Uniform1i(api.GetUniformLocation(program, "widthShift"), std::countr_zero(width));
+    api.Uniform1i(api.GetUniformLocation(program, "completeDepth"), completeDepth);
+  };
+  return layout;
+}
+
+Result<Layout> n3TreeLayout(const gl::Context& context, const N3Tree& tree) {
+  const std::array<std::uint32_t, 3> pool = tree.poolSize();
+  auto poolTexture = gl::uploadRgba8Texture(context, pool[0], pool[1], pool[2], tree.pool, "the N^3-tree's indirection pool");
+  if (!poolTexture) return poolTexture.error();
+  auto lodTexture = gl::uploadRgba8Texture(context, tree.grids[0], tree.grids[1], tree.grids[2], tree.lod, "the N^3-tree's LOD pool");
+  if (!lodTexture) return lodTexture.error();
+  // GL refuses a texture of no rows: a tree without two-sided leaves binds one row of zeros.
+  const std::vector<std::uint8_t> noSides(4 * N3Tree::kSidesWidth, 0);
+  const bool anySides = tree.sidesRows() > 0;
+  auto sidesTexture = gl::uploadRgba8Texture(context, N3Tree::kSidesWidth, anySides ? tree.sidesRows() : 1, 0,
+                                             anySides ? tree.sides : noSides, "the N^3-tree's sides");
+  if (!sidesTexture) return sidesTexture.error();
+  Layout layout{shaders::kN3Walk, glslN3TreeDefinitions(), {}, {}, tree.transform, tree.encoding, tree.defersToCoarse};
+  layout.textures.emplace_back(GL_TEXTURE_3D, std::move(poolTexture).value());
+  layout.textures.emplace_back(GL_TEXTURE_3D, std::move(lodTexture).value());
+  layout.textures.emplace_back(GL_TEXTURE_2D, std::move(sidesTexture).value());
+  const int n = tree.n, log2n = tree.log2n(), levels = tree.levels;
+  const std::array<std::uint32_t, 3> grids = tree.grids;
+  const bool coarseAtInternalNodes = tree.coarseAtInternalNodes;
+  layout.setUniforms = [=](const gl::Api& api, GLuint program) {
+    api.Uniform1i(api.GetUniformLocation(program, "n3Pool"), 0);
+    api.Uniform1i(api.GetUniformLocation(program, "n3Lod"), 1);
+    api.Uniform1i(api.GetUniformLocation(program, "n3Sides"), 2);
+    api.Uniform1i(api.GetUniformLocation(program, "n3N"), n);
+    api.Uniform1i(api.GetUniformLocation(program, "n3Log2N"), log2n);
+    api.Uniform1i(api.GetUniformLocation(program, "n3Levels"), levels);
+    api.Uniform3ui(api.GetUniformLocation(program, "n3PoolSize"), pool[0], pool[1], pool[2]);
+    api.Uniform3ui(api.GetUniformLocation(program, "n3Grids"), grids[0], grids[1], grids[2]);
+    api.Uniform1i(api.GetUniformLocation(program, "n3CoarseAtInternalNodes"), coarseAtInternalNodes ? 1 : 0);
+  };
+  return layout;
+}
+
+std::string fragmentSource(std::string_view body, Walk walk, const Layout& layout) {
   std::string source = "#version 450 core\n";
   if (walk == Walk::CountingFetches) source += "#define COUNT_FETCHES\n";
   source += shaders::kShading;
   if (walk != Walk::None) {
     source += glslLayoutDefinitions();
-    source += shaders::kApoWalk;
+    source += layout.definitions;
+    source += shaders::kWalkCommon;
+    source += layout.walkSource;
+    source += shaders::kFilter;
   }
   source += body;
   return source;
@@ -142,11 +209,11 @@ struct Programs {
   gl::Program vertexNormals, splats, apo, apoCountingFetches, exactness;
 };
 
-Result<Programs> buildPrograms(const gl::Api& api) {
+Result<Programs> buildPrograms(const gl::Api& api, const Layout& layout) {
   Programs programs;
   const auto build = [&](gl::Program& program, std::string_view body, Walk walk,
                          std::string_view vertex = shaders::kMeshVertex, std::string_view geometry = {}) -> Status {
-    auto built = gl::buildProgram(api, vertex, fragmentSource(body, walk), geometry);
+    auto built = gl::buildProgram(api, vertex, fragmentSource(body, walk, layout), geometry);
     if (!built) return built.error();
     program = std::move(built).value();
     return okStatus();
@@ -165,17 +232,14 @@ void setCameraUniforms(const gl::Api& api, GLuint program, const Camera& camera)
   api.Uniform3f(api.GetUniformLocation(program, "eye"), camera.eye.x(), camera.eye.y(), camera.eye.z());
 }
 
-void setApoUniforms(const gl::Api& api, GLuint program, const ApoTexture& apo, const Camera& camera, int size,
-                    bool mipmapping) {
-  api.Uniform1i(api.GetUniformLocation(program, "apoTexture"), 0);
-  api.Uniform1ui(api.GetUniformLocation(program, "widthMask"), apo.width - 1);
-  api.Uniform1i(api.GetUniformLocation(program, "widthShift"), std::countr_zero(apo.width));
-  api.Uniform1i(api.GetUniformLocation(program, "completeDepth"), apo.completeDepth);
-  api.Uniform1ui(api.GetUniformLocation(program, "normalEncoding"), static_cast<GLuint>(apo.encoding));
-  api.Uniform1i(api.GetUniformLocation(program, "defersToCoarse"), apo.defersToCoarse ? 1 : 0);
-  api.Uniform1f(api.GetUniformLocation(program, "unitScale"), static_cast<float>(apo.transform.scale));
-  api.Uniform3f(api.GetUniformLocation(program, "unitOffset"), static_cast<float>(apo.transform.offset[0]),
-                static_cast<float>(apo.transform.offset[1]), static_cast<float>(apo.transform.offset[2]));
+void setWalkUniforms(const gl::Api& api, GLuint program, const Layout& layout, const Camera& camera, int size,
+                     bool mipmapping) {
+  layout.setUniforms(api, program);
+  api.Uniform1ui(api.GetUniformLocation(program, "normalEncoding"), static_cast<GLuint>(layout.encoding));
+  api.Uniform1i(api.GetUniformLocation(program, "defersToCoarse"), layout.defersToCoarse ? 1 : 0);
+  api.Uniform1f(api.GetUniformLocation(program, "unitScale"), static_cast<float>(layout.transform.scale));
+  api.Uniform3f(api.GetUniformLocation(program, "unitOffset"), static_cast<float>(layout.transform.offset[0]),
+                static_cast<float>(layout.transform.offset[1]), static_cast<float>(layout.transform.offset[2]));
   api.Uniform1i(api.GetUniformLocation(program, "mipmapping"), mipmapping ? 1 : 0);
   api.Uniform1f(api.GetUniformLocation(program, "pixelsPerWorldUnitAtOne"),
                 static_cast<float>(size) / (2.0f * std::tan(0.5f * radians(camera.fovYDegrees))));
@@ -240,34 +304,38 @@ FetchCounts countFetches(const NormalBuffer& counts) {
 // declared first so that the GL objects are released before it.
 struct ApoScene {
   std::unique_ptr<gl::Context> context;
+  Layout layout;
   Programs programs;
-  gl::Texture texture;
   GpuGeometry coarse;
 };
 
-Result<ApoScene> makeApoScene(const Scan& coarse, const ApoTexture& apo, int size) {
+using MakeLayout = std::function<Result<Layout>(const gl::Context&)>;
+
+Result<ApoScene> makeApoScene(const Scan& coarse, const MakeLayout& makeLayout, int size) {
   if (!coarse.isMesh()) return badInput("render: m has no triangles");
   auto context = gl::Context::create(size, size);
   if (!context) return context.error();
   const gl::Api& api = (*context)->api();
-  auto programs = buildPrograms(api);
+  auto layout = makeLayout(**context);
+  if (!layout) return layout.error();
+  auto programs = buildPrograms(api, *layout);
   if (!programs) return programs.error();
-  auto texture = gl::uploadApoTexture(**context, apo);
-  if (!texture) return texture.error();
   GpuGeometry mesh = uploadMesh(api, coarse);
-  return ApoScene{std::move(context).value(), std::move(programs).value(), std::move(texture).value(), std::move(mesh)};
+  return ApoScene{std::move(context).value(), std::move(layout).value(), std::move(programs).value(), std::move(mesh)};
 }
 
 // Makes `program` (one of the APO variants) current with its uniforms and
-// the APO texture bound.
-void useApoProgram(const ApoScene& scene, GLuint program, const ApoTexture& apo, const Camera& camera, bool mipmapping,
-                   bool filtering) {
+// the layout's textures bound.
+void useApoProgram(const ApoScene& scene, GLuint program, const Camera& camera, bool mipmapping, bool filtering) {
   const gl::Api& api = scene.context->api();
   api.UseProgram(program);
-  setApoUniforms(api, program, apo, camera, scene.context->width(), mipmapping);
+  setWalkUniforms(api, program, scene.layout, camera, scene.context->width(), mipmapping);
   api.Uniform1i(api.GetUniformLocation(program, "filtering"), filtering ? 1 : 0);
+  for (std::size_t unit = 0; unit < scene.layout.textures.size(); ++unit) {
+    api.ActiveTexture(GL_TEXTURE0 + static_cast<GLenum>(unit));
+    api.BindTexture(scene.layout.textures[unit].first, scene.layout.textures[unit].second.id());
+  }
   api.ActiveTexture(GL_TEXTURE0);
-  api.BindTexture(GL_TEXTURE_2D, scene.texture.id());
 }
 
 Result<GpuGeometry> uploadDetail(const gl::Api& api, const Scan& detail) {
@@ -299,10 +367,9 @@ Status renderBaseline(const ApoScene& scene, const Camera& camera, int frames, V
 }
 
 // The APO pass, its frame time, and its texel reads by the counting variant.
-Status renderApo(const ApoScene& scene, const ApoTexture& apo, const Camera& camera, const RenderOptions& options,
-                 ViewImages& view) {
+Status renderApo(const ApoScene& scene, const Camera& camera, const RenderOptions& options, ViewImages& view) {
   const GLuint program = scene.programs.apo.id();
-  useApoProgram(scene, program, apo, camera, options.mipmapping, options.filtering);
+  useApoProgram(scene, program, camera, options.mipmapping, options.filtering);
   auto pass = renderPass(*scene.context, program, scene.coarse, camera);
   if (!pass) return pass.error();
   view.apo = std::move(pass).value();
@@ -311,7 +378,7 @@ Status renderApo(const ApoScene& scene, const ApoTexture& apo, const Camera& cam
   view.cost.apoMilliseconds = *milliseconds;
 
   const GLuint counting = scene.programs.apoCountingFetches.id();
-  useApoProgram(scene, counting, apo, camera, options.mipmapping, options.filtering);
+  useApoProgram(scene, counting, camera, options.mipmapping, options.filtering);
   auto counted = renderPass(*scene.context, counting, scene.coarse, camera);
   if (!counted) return counted.error();
   view.cost.apoFetches = countFetches(counted->normals);
@@ -359,10 +426,12 @@ Status validateRenderOptions(const RenderOptions& options) {
   return okStatus();
 }
 
-Result<std::vector<ViewImages>> renderViews(const Scan* detail, const Scan& coarse, const ApoTexture& apo,
-                                            const RenderOptions& options, const std::function<void(int, int)>& onViewDone) {
+namespace {
+
+Result<std::vector<ViewImages>> renderViewsWith(const Scan* detail, const Scan& coarse, const MakeLayout& makeLayout,
+                                                const RenderOptions& options, const std::function<void(int, int)>& onViewDone) {
   APO_RETURN_IF_ERROR(validateRenderOptions(options));
-  auto scene = makeApoScene(coarse, apo, options.size);
+  auto scene = makeApoScene(coarse, makeLayout, options.size);
   if (!scene) return scene.error();
   std::optional<GpuGeometry> detailGeometry;
   if (detail) {
@@ -378,11 +447,75 @@ Result<std::vector<ViewImages>> renderViews(const Scan* detail, const Scan& coar
     view.camera = camera;
     if (detailGeometry) APO_RETURN_IF_ERROR(renderReference(*scene, *detailGeometry, camera, options.timedFrames, view));
     APO_RETURN_IF_ERROR(renderBaseline(*scene, camera, options.timedFrames, view));
-    APO_RETURN_IF_ERROR(renderApo(*scene, apo, camera, options, view));
+    APO_RETURN_IF_ERROR(renderApo(*scene, camera, options, view));
     views.push_back(std::move(view));
     if (onViewDone) onViewDone(static_cast<int>(views.size()), static_cast<int>(cameras.size()));
   }
   return views;
+}
+
+// What the CPU walk of a layout says at a point: the place it stopped (the
+// id the exactness shader writes), the normal, the texel reads the shader
+// should have counted, and the filtered normal (none where not found).
+struct CpuWalk {
+  bool found = false;
+  std::uint32_t place = 0;
+  Vec3f normal = Vec3f::Zero();
+  std::uint32_t fetches = 0;
+  std::optional<Vec3f> filtered;
+};
+using CpuWalker = std::function<CpuWalk(const Vec3f& unitPoint, const Vec3f& coarseNormal)>;
+
+// What the exactness shader writes where its walk found no node: the empty
+// grid cell's value (glslLayoutDefinitions' APO_EMPTY_CELL).
+constexpr std::uint32_t kNoNodeMarker = 0xFFFFFFFFu;
+
+Result<WalkAgreement> compareWalkWith(const Scan& coarse, const MakeLayout& makeLayout, const CpuWalker& cpuWalk, int size,
+                                      int views) {
+  auto scene = makeApoScene(coarse, makeLayout, size);
+  if (!scene) return scene.error();
+  const GLuint exactness = scene->programs.exactness.id();
+  const GLuint counting = scene->programs.apoCountingFetches.id();
+  WalkAgreement agreement;
+  for (const Camera& camera : standardViews(boundingBox(coarse.points.positions), views)) {
+    useApoProgram(*scene, exactness, camera, false, false);
+    auto pass = renderPass(*scene->context, exactness, scene->coarse, camera);
+    if (!pass) return pass.error();
+    // The same fragments again, counting texel reads (no mip-mapping, no filtering).
+    useApoProgram(*scene, counting, camera, false, false);
+    auto counts = renderPass(*scene->context, counting, scene->coarse, camera);
+    if (!counts) return counts.error();
+    // The normals the shader decodes, as they are and filtered (paper 5.3),
+    // without mip-mapping.
+    const GLuint apoProgram = scene->programs.apo.id();
+    useApoProgram(*scene, apoProgram, camera, false, false);
+    auto decoded = renderPass(*scene->context, apoProgram, scene->coarse, camera);
+    if (!decoded) return decoded.error();
+    useApoProgram(*scene, apoProgram, camera, false, true);
+    auto filtered = renderPass(*scene->context, apoProgram, scene->coarse, camera);
+    if (!filtered) return filtered.error();
+    // m's own normals: what leaves of a version 3 file show.
+    auto bare = renderPass(*scene->context, scene->programs.vertexNormals.id(), scene->coarse, camera);
+    if (!bare) return bare.error();
+    const std::size_t pixels = static_cast<std::size_t>(size) * static_cast<std::size_t>(size);
+    for (std::size_t i = 0; i < pixels; ++i) {
+      if (!pass->normals.covered(i)) continue;
+      const Vec3f coarseNormal = bare->normals.covered(i) ? bare->normals.normal(i) : Vec3f(Vec3f::Zero());
+      const CpuWalk cpu = cpuWalk(pass->normals.normal(i), coarseNormal);
+      if (cpu.filtered && filtered->normals.covered(i))
+        agreement.maxFilteredDegrees = std::max(agreement.maxFilteredDegrees, angleDegrees(*cpu.filtered, filtered->normals.normal(i)));
+      const std::uint8_t* b = &pass->shaded.rgba[4 * i];
+      const std::uint32_t gpuNode = b[0] | (b[1] << 8) | (b[2] << 16) | (static_cast<std::uint32_t>(b[3]) << 24);
+      const std::uint32_t cpuNode = cpu.found ? cpu.place : kNoNodeMarker;
+      if (cpu.found && decoded->normals.covered(i))
+        agreement.maxNormalDegrees = std::max(agreement.maxNormalDegrees, angleDegrees(cpu.normal, decoded->normals.normal(i)));
+      ++agreement.pixels;
+      agreement.mismatches += gpuNode == cpuNode ? 0 : 1;
+      const bool counted = counts->normals.covered(i);
+      agreement.fetchMismatches += counted && static_cast<std::uint32_t>(counts->normals.data[4 * i]) == cpu.fetches ? 0 : 1;
+    }
+  }
+  return agreement;
 }
 
 // The texel reads of a walk that lookupTexture describes: the grid entry,
@@ -395,58 +528,38 @@ std::uint32_t expectedFetches(const Lookup& lookup, int completeDepth) {
   return 2u * static_cast<std::uint32_t>(lookup.depth - completeDepth) + 3u + (lookup.twoSided ? 1u : 0u);
 }
 
-// What the exactness shader writes where its walk found no node: the empty
-// grid cell's value (glslLayoutDefinitions' APO_EMPTY_CELL).
-constexpr std::uint32_t kNoNodeMarker = 0xFFFFFFFFu;
+}  // namespace
+
+Result<std::vector<ViewImages>> renderViews(const Scan* detail, const Scan& coarse, const ApoTexture& apo,
+                                            const RenderOptions& options, const std::function<void(int, int)>& onViewDone) {
+  return renderViewsWith(detail, coarse, [&](const gl::Context& context) { return apoLayout(context, apo); }, options, onViewDone);
+}
+
+Result<std::vector<ViewImages>> renderViews(const Scan* detail, const Scan& coarse, const N3Tree& tree,
+                                            const RenderOptions& options, const std::function<void(int, int)>& onViewDone) {
+  return renderViewsWith(detail, coarse, [&](const gl::Context& context) { return n3TreeLayout(context, tree); }, options,
+                         onViewDone);
+}
 
 Result<WalkAgreement> compareWalkWithCpu(const Scan& coarse, const ApoTexture& apo, int size, int views) {
-  auto scene = makeApoScene(coarse, apo, size);
-  if (!scene) return scene.error();
-  const GLuint exactness = scene->programs.exactness.id();
-  const GLuint counting = scene->programs.apoCountingFetches.id();
-  WalkAgreement agreement;
-  for (const Camera& camera : standardViews(boundingBox(coarse.points.positions), views)) {
-    useApoProgram(*scene, exactness, apo, camera, false, false);
-    auto pass = renderPass(*scene->context, exactness, scene->coarse, camera);
-    if (!pass) return pass.error();
-    // The same fragments again, counting texel reads (no mip-mapping, no filtering).
-    useApoProgram(*scene, counting, apo, camera, false, false);
-    auto counts = renderPass(*scene->context, counting, scene->coarse, camera);
-    if (!counts) return counts.error();
-    // The normals the shader decodes, as they are and filtered (paper 5.3),
-    // without mip-mapping.
-    const GLuint apoProgram = scene->programs.apo.id();
-    useApoProgram(*scene, apoProgram, apo, camera, false, false);
-    auto decoded = renderPass(*scene->context, apoProgram, scene->coarse, camera);
-    if (!decoded) return decoded.error();
-    useApoProgram(*scene, apoProgram, apo, camera, false, true);
-    auto filtered = renderPass(*scene->context, apoProgram, scene->coarse, camera);
-    if (!filtered) return filtered.error();
-    // m's own normals: what leaves of a version 3 file show.
-    auto bare = renderPass(*scene->context, scene->programs.vertexNormals.id(), scene->coarse, camera);
-    if (!bare) return bare.error();
-    const std::size_t pixels = static_cast<std::size_t>(size) * static_cast<std::size_t>(size);
-    for (std::size_t i = 0; i < pixels; ++i) {
-      if (!pass->normals.covered(i)) continue;
-      const Vec3f coarseNormal = bare->normals.covered(i) ? bare->normals.normal(i) : Vec3f(Vec3f::Zero());
-      const Lookup cpuFiltered = lookupTextureFiltered(apo, pass->normals.normal(i), coarseNormal);
-      if (cpuFiltered.found && filtered->normals.covered(i))
-        agreement.maxFilteredDegrees =
-            std::max(agreement.maxFilteredDegrees, angleDegrees(cpuFiltered.normal, filtered->normals.normal(i)));
-      const std::uint8_t* b = &pass->shaded.rgba[4 * i];
-      const std::uint32_t gpuNode = b[0] | (b[1] << 8) | (b[2] << 16) | (static_cast<std::uint32_t>(b[3]) << 24);
-      const Lookup cpu = lookupTexture(apo, pass->normals.normal(i), 255, coarseNormal);
-      const std::uint32_t cpuNode = cpu.found ? cpu.texel : kNoNodeMarker;
-      if (cpu.found && decoded->normals.covered(i))
-        agreement.maxNormalDegrees = std::max(agreement.maxNormalDegrees, angleDegrees(cpu.normal, decoded->normals.normal(i)));
-      ++agreement.pixels;
-      agreement.mismatches += gpuNode == cpuNode ? 0 : 1;
-      const bool counted = counts->normals.covered(i);
-      agreement.fetchMismatches +=
-          counted && static_cast<std::uint32_t>(counts->normals.data[4 * i]) == expectedFetches(cpu, apo.completeDepth) ? 0 : 1;
-    }
-  }
-  return agreement;
+  const CpuWalker cpuWalk = [&](const Vec3f& p, const Vec3f& coarseNormal) {
+    const Lookup plain = lookupTexture(apo, p, 255, coarseNormal);
+    const Lookup filtered = lookupTextureFiltered(apo, p, coarseNormal);
+    return CpuWalk{plain.found, plain.texel, plain.normal, expectedFetches(plain, apo.completeDepth),
+                   filtered.found ? std::optional<Vec3f>(filtered.normal) : std::nullopt};
+  };
+  return compareWalkWith(coarse, [&](const gl::Context& context) { return apoLayout(context, apo); }, cpuWalk, size, views);
+}
+
+Result<WalkAgreement> compareWalkWithCpu(const Scan& coarse, const N3Tree& tree, int size, int views) {
+  const CpuWalker cpuWalk = [&](const Vec3f& p, const Vec3f& coarseNormal) {
+    const N3Lookup plain = lookupN3Tree(tree, p, 255, coarseNormal);
+    const N3Lookup filtered = lookupN3TreeFiltered(tree, p, coarseNormal);
+    // Not found: the shader read nothing.
+    return CpuWalk{plain.found, static_cast<std::uint32_t>(plain.place), plain.normal, plain.reads,
+                   filtered.found ? std::optional<Vec3f>(filtered.normal) : std::nullopt};
+  };
+  return compareWalkWith(coarse, [&](const gl::Context& context) { return n3TreeLayout(context, tree); }, cpuWalk, size, views);
 }
 
 }  // namespace apo

@@ -143,6 +143,12 @@ struct ViewImages {
 Result<std::vector<ViewImages>> renderViews(const Scan* detail, const Scan& coarse, const ApoTexture& apo,
                                             const RenderOptions& options,
                                             const std::function<void(int, int)>& onViewDone = {});
+// The same passes with m drawn through the same octree stored as an
+// N^3-tree (format.h N3Tree): its walk down the indirection pool, its LOD
+// pool for mip-mapping, its filtering (docs/render.md, "Layouts").
+Result<std::vector<ViewImages>> renderViews(const Scan* detail, const Scan& coarse, const N3Tree& tree,
+                                            const RenderOptions& options,
+                                            const std::function<void(int, int)>& onViewDone = {});
 
 // ---- Figures of the rendered views (render.json) ---------------------------
 
@@ -210,6 +216,10 @@ struct WalkAgreement {
   double maxNormalDegrees = 0.0, maxFilteredDegrees = 0.0;
 };
 Result<WalkAgreement> compareWalkWithCpu(const Scan& coarse, const ApoTexture& apo, int size, int views);
+// The same for the N^3-tree against lookupN3Tree and lookupN3TreeFiltered:
+// the place is the pool cell (or LOD cell) the walk stopped at, the reads
+// N3Lookup::reads.
+Result<WalkAgreement> compareWalkWithCpu(const Scan& coarse, const N3Tree& tree, int size, int views);
 
 // Fidelity to the scan itself, for point scans (whose M is a reconstruction
 // and can be far from them), by the method of ../shared/tools/scan_eval.py.

@@ -104,26 +104,22 @@ void main() {
 }
 )";
 
-// The APO walk (paper 5.1 with the completion grid of section 6).
-inline constexpr std::string_view kApoWalk = R"(
-uniform usampler2D apoTexture;
-uniform uint widthMask;      // texture width - 1 (a power of two)
-uniform int widthShift;      // log2(texture width)
-uniform int completeDepth;
+// What both layouts' walks share: the unit cube, the normal decoding, the
+// mip-mapping's pixel test, and the texel-read counter of the
+// fetch-counting variant (COUNT_FETCHES defined).
+inline constexpr std::string_view kWalkCommon = R"(
 uniform uint normalEncoding; // APO_ENCODING_XYZ8 or APO_ENCODING_OCT24
-uniform bool defersToCoarse; // format versions 3 and 4: the reserved code shows m's own normal
+uniform bool defersToCoarse; // the reserved code shows m's own normal
 uniform float unitScale;     // unit = world * unitScale + unitOffset
 uniform vec3 unitOffset;
 uniform bool mipmapping;
 uniform float pixelsPerWorldUnitAtOne;  // screen pixels covered by one world unit at distance 1
 
-// The fetch-counting variant (COUNT_FETCHES defined) counts every texel read.
 uint fetchCount = 0u;
-uvec4 texel(uint index) {
+void countFetch() {
 #ifdef COUNT_FETCHES
   ++fetchCount;
 #endif
-  return texelFetch(apoTexture, ivec2(int(index & widthMask), int(index >> widthShift)), 0);
 }
 
 vec2 signNotZero(vec2 v) { return vec2(v.x >= 0.0 ? 1.0 : -1.0, v.y >= 0.0 ? 1.0 : -1.0); }
@@ -135,6 +131,29 @@ vec3 decodeNormal(uvec3 rgb) {
   vec3 p = vec3(uv, 1.0 - abs(uv.x) - abs(uv.y));
   if (p.z < 0.0) p.xy = (1.0 - abs(p.yx)) * signNotZero(p.xy);
   return normalize(p);
+}
+
+bool isCoarseCode(uvec3 rgb) {
+  uint code = normalEncoding == APO_ENCODING_XYZ8 ? APO_COARSE_XYZ8 : APO_COARSE_OCT24;
+  return (rgb.r | (rgb.g << 8) | (rgb.b << 16)) == code;
+}
+
+// Screen pixels a cell of width 1 (unit cube) covers at `distance`, by its diagonal.
+float pixelsPerUnitCellAt(float distance) { return sqrt(3.0) / unitScale * pixelsPerWorldUnitAtOne / distance; }
+
+vec3 unitPointOf(vec3 world) { return world * unitScale + unitOffset; }
+)";
+
+// The APO walk (paper 5.1 with the completion grid of section 6).
+inline constexpr std::string_view kApoWalk = R"(
+uniform usampler2D apoTexture;
+uniform uint widthMask;      // texture width - 1 (a power of two)
+uniform int widthShift;      // log2(texture width)
+uniform int completeDepth;
+
+uvec4 texel(uint index) {
+  countFetch();
+  return texelFetch(apoTexture, ivec2(int(index & widthMask), int(index >> widthShift)), 0);
 }
 
 struct Walk {
@@ -161,7 +180,7 @@ Walk walk(vec3 P, int maxDepth, float distance) {
   float width = 1.0 / fn;
   vec3 centre = (vec3(cell) + 0.5) * width;
   int depth = completeDepth;
-  float pixelsPerUnitCell = sqrt(3.0) / unitScale * pixelsPerWorldUnitAtOne / distance;
+  float pixelsPerUnitCell = pixelsPerUnitCellAt(distance);
   bool twoTexels = false;  // the parent's kind bit (grid nodes have none)
   for (int step = 0; step < APO_MAX_WALK_STEPS; ++step) {
     uvec4 first = texel(node);
@@ -183,8 +202,6 @@ Walk walk(vec3 P, int maxDepth, float distance) {
   return Walk(true, node, node, depth, false);
 }
 
-vec3 unitPointOf(vec3 world) { return world * unitScale + unitOffset; }
-
 // The node's normal, or m's own (`coarseNormal`, the fragment's) where a
 // leaf holds the reserved code; of a two-sided leaf, the side m's normal
 // picks (format/'s leafSide: side 0 where its coordinate on the leaf's axis
@@ -193,10 +210,92 @@ vec3 normalAt(Walk w, vec3 coarseNormal) {
   uint normalTexel = w.normalTexel;
   if (w.twoSided && coarseNormal[texel(w.node + 1u).a] < 0.0) normalTexel = w.node + 1u;
   uvec3 rgb = texel(normalTexel).rgb;
-  uint code = normalEncoding == APO_ENCODING_XYZ8 ? APO_COARSE_XYZ8 : APO_COARSE_OCT24;
-  if (defersToCoarse && (rgb.r | (rgb.g << 8) | (rgb.b << 16)) == code) return coarseNormal;
+  if (defersToCoarse && isCoarseCode(rgb)) return coarseNormal;
   return decodeNormal(rgb);
 }
+)";
+
+// The N^3-tree walk (GPU Gems 2, chapter 37, section 1.2.2): from the root
+// grid at (0, 0, 0) of the indirection pool, the cell of P in each grid
+// (P N^(L+1), exact in float, ceil - 1 so that ties go to the lower cell
+// as in the APO's walk) read by texelFetch, which replaces the chapter's
+// normalised coordinates (I + frac(P N^L)) / S and their rounding; a
+// pointer cell gives the next grid, a data cell ends the walk, an empty
+// cell, `maxDepth` or the pixel test ends it at the node's average in the
+// LOD pool (section 1.3.3, MIP-mapping). format/'s lookupN3Tree does the same.
+inline constexpr std::string_view kN3Walk = R"(
+uniform usampler3D n3Pool;
+uniform usampler3D n3Lod;
+uniform usampler2D n3Sides;
+uniform int n3N;             // 2 or 4
+uniform int n3Log2N;
+uniform int n3Levels;
+uniform uvec3 n3PoolSize;    // cells per axis of the pool
+uniform uvec3 n3Grids;       // grids per axis (the LOD pool's size)
+uniform bool n3CoarseAtInternalNodes;
+
+uvec4 poolCell(ivec3 at) {
+  countFetch();
+  return texelFetch(n3Pool, at, 0);
+}
+
+struct Walk {
+  bool found;
+  uint node;     // where it stopped: the pool cell's index, or the pool's cells + the grid's (a node's average)
+  int depth;     // octree depth of that cell or node
+  uvec4 value;   // the cell's bytes, or the LOD pool's
+  bool average;
+};
+
+Walk averageOf(ivec3 grid, int level) {
+  countFetch();
+  uint index = n3PoolSize.x * n3PoolSize.y * n3PoolSize.z + uint(grid.x) + n3Grids.x * (uint(grid.y) + n3Grids.y * uint(grid.z));
+  return Walk(true, index, level * n3Log2N, texelFetch(n3Lod, grid, 0), true);
+}
+
+Walk walk(vec3 P, int maxDepth, float distance) {
+  Walk w = Walk(false, 0u, 0, uvec4(0u), false);
+  if (any(lessThan(P, vec3(0.0))) || any(greaterThan(P, vec3(1.0)))) return w;
+  float pixelsPerUnitCell = pixelsPerUnitCellAt(distance);
+  float fn = float(n3N);
+  float width = 1.0;
+  ivec3 grid = ivec3(0);
+  vec3 scaled = P;
+  for (int level = 0; level < N3_MAX_LEVELS && level < n3Levels; ++level) {
+    if ((level + 1) * n3Log2N > maxDepth || (mipmapping && width * pixelsPerUnitCell < 1.0)) return averageOf(grid, level);
+    scaled *= fn;
+    ivec3 cell = grid * n3N + (max(ivec3(ceil(scaled)) - 1, ivec3(0)) & ivec3(n3N - 1));
+    uvec4 value = poolCell(cell);
+    if (value.a == N3_POINTER) {
+      grid = ivec3(value.rgb);
+      width /= fn;
+      continue;
+    }
+    if (value.a == N3_EMPTY) return averageOf(grid, level);
+    return Walk(true, uint(cell.x) + n3PoolSize.x * (uint(cell.y) + n3PoolSize.y * uint(cell.z)), (level + 1) * n3Log2N,
+                value, false);
+  }
+  return w;
+}
+
+// The cell's normal, or m's own where it holds the reserved code; of a
+// two-sided leaf, the side m's normal picks from the sides texture.
+vec3 normalAt(Walk w, vec3 coarseNormal) {
+  uvec4 v = w.value;
+  if (!w.average && v.a >= N3_TWO_SIDED && v.a < N3_DATA) {
+    uint leaf = v.r | (v.g << 8) | (v.b << 16);
+    uint index = 2u * leaf + (coarseNormal[int(v.a - N3_TWO_SIDED)] < 0.0 ? 1u : 0u);
+    countFetch();
+    return decodeNormal(texelFetch(n3Sides, ivec2(int(index & ((1u << N3_SIDES_WIDTH_SHIFT) - 1u)), int(index >> N3_SIDES_WIDTH_SHIFT)), 0).rgb);
+  }
+  if ((w.average ? n3CoarseAtInternalNodes : defersToCoarse) && isCoarseCode(v.rgb)) return coarseNormal;
+  return decodeNormal(v.rgb);
+}
+)";
+
+// Paper 5.3 (and the chapter's linear interpolation, 8 samples at the
+// lattice of P's own cell), over either walk.
+inline constexpr std::string_view kFilter = R"(
 
 // Paper 5.3: the normal blended trilinearly from the 8 cells around P at the
 // depth of P's own cell, each reached by its own walk; a neighbour that is

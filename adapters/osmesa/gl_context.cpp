@@ -154,6 +154,7 @@ Status Context::queryInfo() {
   api_.GetIntegerv(GL_MINOR_VERSION, &info_.minorVersion);
   api_.GetIntegerv(GL_CONTEXT_PROFILE_MASK, &profileMask);
   api_.GetIntegerv(GL_MAX_TEXTURE_SIZE, &info_.maxTextureSize);
+  api_.GetIntegerv(GL_MAX_3D_TEXTURE_SIZE, &info_.max3DTextureSize);
   info_.coreProfile = (profileMask & GL_CONTEXT_CORE_PROFILE_BIT) != 0;
   // Every function of APO_GL_FUNCTIONS is core in 3.3; this check, not the
   // loader's, is what proves them present (see loadApi).

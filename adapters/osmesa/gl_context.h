@@ -58,6 +58,7 @@ std::string defaultOsMesaLibrary();
   X(PFNGLBINDTEXTUREPROC, BindTexture)                                        \
   X(PFNGLACTIVETEXTUREPROC, ActiveTexture)                                    \
   X(PFNGLTEXIMAGE2DPROC, TexImage2D)                                          \
+  X(PFNGLTEXIMAGE3DPROC, TexImage3D)                                          \
   X(PFNGLTEXPARAMETERIPROC, TexParameteri)                                    \
   /* shaders and programs */                                                  \
   X(PFNGLCREATESHADERPROC, CreateShader)                                      \
@@ -78,6 +79,7 @@ std::string defaultOsMesaLibrary();
   X(PFNGLUNIFORM1UIPROC, Uniform1ui)                                          \
   X(PFNGLUNIFORM1FPROC, Uniform1f)                                            \
   X(PFNGLUNIFORM3FPROC, Uniform3f)                                            \
+  X(PFNGLUNIFORM3UIPROC, Uniform3ui)                                          \
   X(PFNGLUNIFORM4FPROC, Uniform4f)                                            \
   X(PFNGLUNIFORMMATRIX3FVPROC, UniformMatrix3fv)                              \
   X(PFNGLUNIFORMMATRIX4FVPROC, UniformMatrix4fv)                              \
@@ -107,6 +109,7 @@ struct Info {
   int majorVersion = 0, minorVersion = 0;
   bool coreProfile = false;
   int maxTextureSize = 0;  // GL_MAX_TEXTURE_SIZE, texels per side
+  int max3DTextureSize = 0;  // GL_MAX_3D_TEXTURE_SIZE, texels per side
 };
 
 // The offscreen target's colour attachments, as `layout(location = N)` of the

@@ -116,4 +116,31 @@ inline std::string firstDifference(const Octree& a, const Octree& b, std::uint32
   return "";
 }
 
+// Points that stress the walks: uniform, on dyadic planes (cell boundaries
+// of every depth), at the cube's faces and corners, and outside it.
+inline std::vector<Vec3f> lookupPoints(std::size_t count, std::uint64_t seed) {
+  std::mt19937_64 random(seed);
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f), wide(-0.2f, 1.2f);
+  std::uniform_int_distribution<int> kindDist(0, 3), depthDist(0, 9);
+  auto dyadic = [&] {
+    const int depth = depthDist(random);
+    return static_cast<float>(std::uniform_int_distribution<int>(0, 1 << depth)(random)) /
+           static_cast<float>(1 << depth);
+  };
+  std::vector<Vec3f> points = {{0, 0, 0}, {1, 1, 1}, {0, 1, 0.5f}, {0.5f, 0.5f, 0.5f}, {-0.0f, 1, 1}};
+  while (points.size() < count) {
+    Vec3f p;
+    for (int axis = 0; axis < 3; ++axis) {
+      switch (kindDist(random)) {
+        case 0: p[axis] = unit(random); break;
+        case 1:
+        case 2: p[axis] = dyadic(); break;
+        default: p[axis] = wide(random); break;
+      }
+    }
+    points.push_back(p);
+  }
+  return points;
+}
+
 }  // namespace apo::test

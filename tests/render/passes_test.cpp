@@ -204,6 +204,50 @@ TEST_F(BumpySphereRender, GlslDecodesXyz8LikeTheCpu) {
   EXPECT_LT(agreement->maxFilteredDegrees, 0.01);
 }
 
+// The same octree as an N^3-tree (GPU Gems 2) of N = 2 and N = 4: its GLSL
+// walk down the indirection pool lands on the cell lookupN3Tree lands on,
+// reads the texels it counts, and decodes and filters the same normals.
+TEST_F(BumpySphereRender, N3TreeGlslWalkAgreesWithTheCpuWalkOnEveryPixel) {
+  for (const int n : {2, 4}) {
+    auto tree = buildN3Tree(*octree_, n, texture_->encoding);
+    ASSERT_TRUE(tree.ok()) << tree.error().message;
+    auto agreement = compareWalkWithCpu(*coarse_, *tree, 192, 14);
+    ASSERT_TRUE(agreement.ok()) << agreement.error().message;
+    EXPECT_GT(agreement->pixels, 14u * 7000u) << "N " << n;
+    EXPECT_EQ(agreement->mismatches, 0u) << "N " << n;
+    EXPECT_EQ(agreement->fetchMismatches, 0u) << "N " << n;
+    EXPECT_LT(agreement->maxNormalDegrees, 0.001) << "N " << n;
+    EXPECT_LT(agreement->maxFilteredDegrees, 0.01) << "N " << n;
+  }
+}
+
+// Drawn, the N^3-tree of N = 2 shows what the APO shows (the same leaves,
+// the same normals, walked and filtered alike); its mip-mapping stops at
+// the same depths, at its LOD pool's averages. The APO without its
+// completion grid: the grid drops the levels above it, where a filter
+// sample in an empty cell finds nothing, the N^3-tree an ancestor's average.
+TEST_F(BumpySphereRender, N3TreeDrawsWhatTheApoDraws) {
+  auto tree = buildN3Tree(*octree_, 2, texture_->encoding);
+  ASSERT_TRUE(tree.ok()) << tree.error().message;
+  auto flat = encodeApo(*octree_, 0, texture_->encoding, texture_->coarseDepth, texture_->maxDepth);
+  ASSERT_TRUE(flat.ok()) << flat.error().message;
+  for (const bool filtering : {false, true}) {
+    RenderOptions options;
+    options.size = 128;
+    options.views = 4;
+    options.timedFrames = 0;
+    options.filtering = filtering;
+    auto apo = renderViews(detail_, *coarse_, *flat, options);
+    auto n3 = renderViews(detail_, *coarse_, *tree, options);
+    ASSERT_TRUE(apo.ok() && n3.ok());
+    for (std::size_t v = 0; v < apo->size(); ++v) {
+      const AngularStats apart = angularErrors((*n3)[v].apo.normals, (*apo)[v].apo.normals);
+      EXPECT_GT(apart.pixels, 3000u);
+      EXPECT_LT(apart.max, 0.01) << "view " << v << (filtering ? " filtered" : "");
+    }
+  }
+}
+
 TEST_F(BumpySphereRender, EveryViewHasItsThreePassesOverTheSameSilhouette) {
   RenderOptions options;
   options.size = 128;

@@ -1,0 +1,110 @@
+// Internal to format/: header fields of the binary files (.apo, .n3t) at
+// documented offsets, written in order and read with errors that name the
+// field, and the SHA-256 of a payload as raw bytes.
+#pragma once
+
+#include "core/error.h"
+#include "core/file_io.h"
+
+#include <array>
+#include <bit>
+#include <cstdint>
+#include <cstring>
+#include <string>
+#include <string_view>
+#include <type_traits>
+#include <vector>
+
+namespace apo::header_io {
+
+// A header field: where it is, how long, its name in messages and the doc.
+struct Field {
+  std::size_t offset;
+  std::size_t size;
+  std::string_view name;
+};
+
+template <class... Args>
+Error fieldError(const Field& field, fmt::format_string<Args...> format, Args&&... args) {
+  return badInput("byte {} ({}): {}", field.offset, field.name, fmt::format(format, std::forward<Args>(args)...));
+}
+
+inline std::string hexBytes(const std::uint8_t* bytes, std::size_t count, std::string_view separator) {
+  std::string hex;
+  for (std::size_t i = 0; i < count; ++i) hex += fmt::format("{}{:02x}", i ? separator : "", bytes[i]);
+  return hex;
+}
+
+class HeaderWriter {
+ public:
+  template <class T>
+  void integer(const Field& field, T value) {
+    static_assert(std::is_unsigned_v<T>);
+    at(field, sizeof(T));
+    for (std::size_t i = 0; i < sizeof(T); ++i) bytes_.push_back(static_cast<char>((value >> (8 * i)) & 0xFF));
+  }
+  void float64(const Field& field, double value) { integer(field, std::bit_cast<std::uint64_t>(value)); }
+  template <std::size_t N>
+  void raw(const Field& field, const std::array<std::uint8_t, N>& value) {
+    at(field, N);
+    bytes_.append(reinterpret_cast<const char*>(value.data()), N);
+  }
+  const std::string& bytes() const { return bytes_; }
+
+ private:
+  // The fields are written in order, each at its documented offset.
+  void at(const Field& field, std::size_t size) {
+    APO_CHECK_OP(bytes_.size(), ==, field.offset);
+    APO_CHECK_OP(size, ==, field.size);
+  }
+  std::string bytes_;
+};
+
+inline std::array<std::uint8_t, 32> checksumOf(const std::vector<std::uint8_t>& payload) {
+  const std::string hex = sha256OfBytes(
+      std::string_view(reinterpret_cast<const char*>(payload.data()), payload.size()));
+  APO_CHECK_OP(hex.size(), ==, 64u);
+  std::array<std::uint8_t, 32> digest{};
+  for (std::size_t i = 0; i < digest.size(); ++i)
+    digest[i] = static_cast<std::uint8_t>(std::stoul(hex.substr(2 * i, 2), nullptr, 16));
+  return digest;
+}
+
+// Fields read from the bytes of the header the file has, which may be fewer
+// than the header's size: reading past them names the field the file ends in.
+class HeaderReader {
+ public:
+  HeaderReader(std::string_view bytes, std::uint64_t fileSize) : bytes_(bytes), fileSize_(fileSize) {}
+
+  template <class T>
+  Status integer(const Field& field, T& value) {
+    APO_RETURN_IF_ERROR(available(field));
+    value = 0;
+    for (std::size_t i = 0; i < sizeof(T); ++i)
+      value |= static_cast<T>(static_cast<T>(static_cast<std::uint8_t>(bytes_[field.offset + i])) << (8 * i));
+    return okStatus();
+  }
+  Status float64(const Field& field, double& value) {
+    std::uint64_t bits = 0;
+    APO_RETURN_IF_ERROR(integer(field, bits));
+    value = std::bit_cast<double>(bits);
+    return okStatus();
+  }
+  template <std::size_t N>
+  Status raw(const Field& field, std::array<std::uint8_t, N>& value) {
+    APO_RETURN_IF_ERROR(available(field));
+    std::memcpy(value.data(), bytes_.data() + field.offset, N);
+    return okStatus();
+  }
+
+ private:
+  Status available(const Field& field) const {
+    if (field.offset + field.size > bytes_.size())
+      return fieldError(field, "the file ends after {} bytes, inside the header (truncated file)", fileSize_);
+    return okStatus();
+  }
+  std::string_view bytes_;
+  std::uint64_t fileSize_;
+};
+
+}  // namespace apo::header_io
