@@ -35,6 +35,7 @@ Status validateBakeOptions(const BakeOptions& o) {
     return usageError("--budget 0 (no cap) needs an --error threshold, or the octree would grow to --max-depth everywhere");
   if (!(o.maxDistance > 0.0) || !std::isfinite(o.maxDistance))
     return usageError("--max-distance must be positive, got {}", o.maxDistance);
+  if (o.n3Size != 2 && o.n3Size != 4) return usageError("--n3-size must be 2 or 4, got {}", o.n3Size);
   if (o.samples < 1 || o.samples > kMostSamples)
     return usageError("--samples must be in [1, {}], got {}", kMostSamples, o.samples);
   if (o.completeDepth < -1 || o.completeDepth > o.coarseDepth)
@@ -336,6 +337,15 @@ Result<Bake> bakeWith(const DetailSurface& detail, const CoarseSurface& coarseSu
   report.textureWidth = bake.texture.width;
   report.textureHeight = bake.texture.height;
   report.textureBytes = bake.texture.texels.size();
+  if (options.layout == TextureLayout::N3Tree) {
+    const Stopwatch building;
+    auto tree = buildN3Tree(bake.octree, options.n3Size, options.encoding);
+    if (!tree) return tree.error();
+    tree->origin = bake.texture.origin;
+    report.n3tree = N3TreeReport{tree->n, tree->levels, tree->usedGrids, tree->poolSize(), tree->twoSidedLeaves,
+                                 tree->textureBytes(), building.seconds()};
+    bake.n3tree = std::move(tree).value();
+  }
   report.totalSeconds = total.seconds();
   report.peakMemoryBytes = peakResidentBytes();
   reportProgress(onProgress, 1.0);

@@ -16,7 +16,9 @@
 #include "core/timing.h"
 #include "format/format.h"
 
+#include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -48,6 +50,11 @@ struct BakeOptions {
   // format version 4, docs/bake.md "Two-sided leaves"); false: one normal
   // per leaf, as in the paper.
   bool twoSidedLeaves = true;
+  // What else stores the octree (docs/bake.md, "Layouts"): with N3Tree, GPU
+  // Gems 2's N^3-tree of N = n3Size (2 or 4) of the same octree, beside the
+  // APO texture (which the budget counts).
+  TextureLayout layout = TextureLayout::Apo;
+  int n3Size = 2;
 };
 
 struct BakePhaseSeconds {
@@ -65,6 +72,16 @@ struct RefinementReport {
   std::uint64_t internalNodesShowingCoarse = 0;  // where mip-mapped walks stop, m's normal
 };
 
+// The N^3-tree's shape and bytes (layout n3tree).
+struct N3TreeReport {
+  int n = 0, levels = 0;
+  std::uint32_t grids = 0;
+  std::array<std::uint32_t, 3> poolCells = {0, 0, 0};  // per axis
+  std::uint32_t twoSidedLeaves = 0;
+  std::uint64_t bytes = 0;  // indirection pool + LOD pool + sides
+  double seconds = 0.0;
+};
+
 struct BakeReport {
   std::string detailKind;  // "mesh" or "points"
   std::uint64_t detailPrimitives = 0, coarseTriangles = 0;
@@ -74,6 +91,7 @@ struct BakeReport {
   std::uint64_t rays = 0, hits = 0, fallbacks = 0;  // fallbacks: samples taken by the closest point
   std::uint32_t textureWidth = 0, textureHeight = 0;
   std::uint64_t textureBytes = 0;
+  std::optional<N3TreeReport> n3tree;
   BakePhaseSeconds seconds;
   double totalSeconds = 0;
   std::uint64_t peakMemoryBytes = 0;
@@ -82,6 +100,7 @@ struct BakeReport {
 struct Bake {
   Octree octree;
   ApoTexture texture;
+  std::optional<N3Tree> n3tree;  // layout n3tree
   BakeReport report;
 };
 

@@ -23,6 +23,11 @@ std::string bakeReportJson(const BakeReport& r) {
                         {"leaves_at_max_depth", f.leavesAtMaxDepth}};
   json["sampling"] = {{"rays", r.rays}, {"samples_hit", r.hits}, {"samples_fallback", r.fallbacks}};
   json["texture"] = {{"width", r.textureWidth}, {"height", r.textureHeight}, {"bytes", r.textureBytes}};
+  if (r.n3tree) {
+    const N3TreeReport& t = *r.n3tree;
+    json["n3tree"] = {{"n", t.n},         {"levels", t.levels}, {"grids", t.grids}, {"pool_cells", t.poolCells},
+                      {"two_sided_leaves", t.twoSidedLeaves}, {"bytes", t.bytes}, {"seconds", t.seconds}};
+  }
   json["seconds"] = {{"setup", r.seconds.setup},
                      {"build", r.seconds.build},
                      {"sample", r.seconds.sample},

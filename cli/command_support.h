@@ -5,6 +5,7 @@
 #include "cli/commands.h"
 #include "core/error.h"
 #include "core/file_io.h"
+#include "format/format.h"
 
 #include <spdlog/spdlog.h>
 #include <tbb/global_control.h>
@@ -48,6 +49,30 @@ inline std::optional<tbb::global_control> limitThreads(int threads) {
   if (threads <= 0) return std::nullopt;
   return std::make_optional<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
                                                  static_cast<std::size_t>(threads));
+}
+
+// An octree file as stored: the APO texture (.apo) or, by its extension
+// .n3t, the N^3-tree of `apo bake --layout n3tree`.
+struct OctreeFile {
+  std::optional<ApoTexture> apo;
+  std::optional<N3Tree> n3tree;
+
+  const UnitCubeTransform& transform() const { return apo ? apo->transform : n3tree->transform; }
+  bool needsCoarseNormals() const { return apo ? apo->needsCoarseNormals() : n3tree->needsCoarseNormals(); }
+};
+
+inline Result<OctreeFile> readOctreeFile(const std::filesystem::path& path) {
+  OctreeFile file;
+  if (path.extension() == ".n3t") {
+    auto tree = readN3TreeFile(path);
+    if (!tree) return tree.error();
+    file.n3tree = std::move(tree).value();
+  } else {
+    auto texture = readApoFile(path);
+    if (!texture) return texture.error();
+    file.apo = std::move(texture).value();
+  }
+  return file;
 }
 
 }  // namespace apo::cli

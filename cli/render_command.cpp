@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <memory>
+#include <optional>
 
 namespace apo::cli {
 namespace fs = std::filesystem;
@@ -20,18 +21,18 @@ struct RenderCommand {
   RenderArguments arguments;
 };
 
-// The .apo must have been baked around this m: its unit cube is m's.
-Status checkTransformMatches(const fs::path& apoPath, const ApoTexture& texture, const Scan& coarse) {
+// The .apo (or .n3t) must have been baked around this m: its unit cube is m's.
+Status checkTransformMatches(const fs::path& apoPath, const UnitCubeTransform& transform, const Scan& coarse) {
   const UnitCubeTransform expected = unitCubeAround(boundingBox(coarse.points.positions));
-  const double scaleError = std::abs(expected.scale - texture.transform.scale) / expected.scale;
+  const double scaleError = std::abs(expected.scale - transform.scale) / expected.scale;
   double offsetError = 0.0;
   for (int axis = 0; axis < 3; ++axis)
-    offsetError = std::max(offsetError, std::abs(expected.offset[axis] - texture.transform.offset[axis]));
+    offsetError = std::max(offsetError, std::abs(expected.offset[axis] - transform.offset[axis]));
   if (scaleError > 1e-5 || offsetError > 1e-5)
     return badInput("{}: baked around another coarse mesh: its unit-cube scale {} and offset ({}, {}, {}) are not m's ({} and "
                     "({}, {}, {}))",
-                    apoPath.string(), texture.transform.scale, texture.transform.offset[0], texture.transform.offset[1],
-                    texture.transform.offset[2], expected.scale, expected.offset[0], expected.offset[1], expected.offset[2]);
+                    apoPath.string(), transform.scale, transform.offset[0], transform.offset[1],
+                    transform.offset[2], expected.scale, expected.offset[0], expected.offset[1], expected.offset[2]);
   return okStatus();
 }
 
@@ -39,21 +40,26 @@ int runRender(RenderCommand command) {
   command.arguments.apply();
   const RenderOptions& options = command.arguments.options;
   if (Status valid = validateRenderOptions(options); !valid.ok()) return reportFailure(valid.error());
-  auto texture = readApoFile(command.apo);
-  if (!texture) return reportFailure(texture.error());
+  auto drawn = readOctreeFile(command.apo);
+  if (!drawn) return reportFailure(drawn.error());
   auto coarse = readScan(command.coarse);
   if (!coarse) return reportFailure(coarse.error());
   if (!coarse->isMesh()) return reportFailure(badInput("{}: m must be a triangle mesh", command.coarse.string()));
-  if (Status s = checkTransformMatches(command.apo, *texture, *coarse); !s.ok()) return reportFailure(s.error());
+  if (Status s = checkTransformMatches(command.apo, drawn->transform(), *coarse); !s.ok()) return reportFailure(s.error());
   std::unique_ptr<Scan> detail;
   if (!command.detail.empty()) {
     auto read = readScan(command.detail);
     if (!read) return reportFailure(read.error());
     detail = std::make_unique<Scan>(std::move(read).value());
   }
-  auto views = renderViews(detail.get(), *coarse, *texture, options);
+  auto views = drawn->apo ? renderViews(detail.get(), *coarse, *drawn->apo, options)
+                          : renderViews(detail.get(), *coarse, *drawn->n3tree, options);
   if (!views) return reportFailure(aboutInput(command.detail.empty() ? command.coarse : command.detail, views.error()));
-  const RenderFigures figures = measureViews(*views);
+  RenderFigures figures = measureViews(*views);
+  if (drawn->n3tree) {
+    figures.layout = "n3tree";
+    figures.n3Size = drawn->n3tree->n;
+  }
   if (Status s = writeRenderOutputs(command.outDir, *views, figures, options); !s.ok()) return reportFailure(s.error());
   if (detail)
     spdlog::info("render: {} views at {}px: APO {:.3f} deg mean from M's normals, m alone {:.3f} (x{:.2f}) -> {}",
@@ -75,7 +81,7 @@ int runRender(RenderCommand command) {
 void addRenderCommand(CLI::App& app, int& exitCode) {
   auto command = std::make_shared<RenderCommand>();
   CLI::App* sub = app.add_subcommand("render", "Render m with the APO next to M, headless, and measure the difference");
-  sub->add_option("--apo", command->apo, "The .apo file (apo bake)")->required();
+  sub->add_option("--apo", command->apo, "The .apo file (apo bake), or the .n3t of `apo bake --layout n3tree`")->required();
   sub->add_option("--coarse", command->coarse, "m, the mesh the APO was baked around")->required();
   sub->add_option("--detail", command->detail, "M, the dense mesh or the points: the reference the metrics compare with");
   sub->add_option("-o,--out", command->outDir, "Output folder (PNGs, normal buffers, heat maps, render.json)")->required();

@@ -46,6 +46,7 @@ void SimplifyArguments::apply() {
 void RenderArguments::apply() {
   options.mipmapping = !noMipmapping;
   if (filterByDefault) options.filtering = !noFiltering;
+  options.pointLod = !noPointLod;
 }
 
 void addIngestOptions(CLI::App& app, IngestArguments& arguments) {
@@ -144,6 +145,15 @@ void addBakeOptions(CLI::App& app, BakeArguments& arguments) {
       ->default_str(normalEncodingName(o.encoding));
   app.add_flag("--one-sided", [&o](std::int64_t) { o.twoSidedLeaves = false; },
                "One normal per leaf, as in the paper: no two-sided leaves across thin parts");
+  const std::map<std::string, TextureLayout> layouts = {{"apo", TextureLayout::Apo}, {"n3tree", TextureLayout::N3Tree}};
+  app.add_option("--layout", o.layout,
+                 "apo: the APO texture (paper section 4); n3tree: also GPU Gems 2's N^3-tree of the same octree "
+                 "(scan.n3t), which the renders then draw")
+      ->transform(CLI::CheckedTransformer(layouts, CLI::ignore_case).description(choicesOf(layouts)))
+      ->default_str("apo");
+  app.add_option("--n3-size", o.n3Size, "N of the N^3-tree: 2 (an octree) or 4 (two levels per grid)")
+      ->check(CLI::IsMember({2, 4}))
+      ->capture_default_str();
   app.add_option("--threads", arguments.threads, "Worker threads (0: all cores); the output does not depend on it")
       ->capture_default_str();
 }
@@ -162,6 +172,12 @@ void addRenderOptions(CLI::App& app, RenderArguments& arguments) {
     app.add_flag("--filter", o.filtering, "Trilinear filtering of the 8 neighbouring cells (paper 5.3)");
   app.add_option("--frames", o.timedFrames, "Frames timed per pass and view (median); 0: no timing")
       ->check(CLI::Range(0, 1000))
+      ->capture_default_str();
+  app.add_flag("--no-point-lod", arguments.noPointLod,
+               "M as points: draw every point's disc instead of the point LOD (Maximo et al.)");
+  app.add_option("--lod-threshold", o.lodThreshold,
+                 "M as points: the point LOD draws each patch at the coarsest level whose perpendicular error "
+                 "projects to at most this many pixels")
       ->capture_default_str();
 }
 

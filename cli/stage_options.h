@@ -46,6 +46,7 @@ struct RenderArguments {
   // default, and 3-4x cheaper per frame).
   bool filterByDefault = false;
   bool noFiltering = false;
+  bool noPointLod = false;
   void apply();
 };
 

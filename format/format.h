@@ -221,6 +221,11 @@ struct N3Tree {
   bool needsCoarseNormals() const { return defersToCoarse || coarseAtInternalNodes || twoSidedLeaves > 0; }
 };
 
+// How the octree is stored for the shader: the APO's texture (paper section
+// 4) or GPU Gems 2's N^3-tree.
+enum class TextureLayout : std::uint8_t { Apo = 0, N3Tree = 1 };
+std::string textureLayoutName(TextureLayout layout);  // "apo", "n3tree"
+
 // The octree as an N^3-tree of `n` (2 or 4) with the octree's own normals
 // (its nodes' normals are the LOD pool); Usage error for another n or when
 // the nodes need more than 256^3 grids or the pool more than `maxPoolSide`

@@ -158,6 +158,8 @@ N3Lookup averageOf(const N3Tree& tree, const std::array<std::uint32_t, 3>& grid,
 
 }  // namespace
 
+std::string textureLayoutName(TextureLayout layout) { return layout == TextureLayout::N3Tree ? "n3tree" : "apo"; }
+
 std::uint64_t N3Tree::poolCells() const {
   const std::array<std::uint32_t, 3> size = poolSize();
   return std::uint64_t{size[0]} * size[1] * size[2];

@@ -126,6 +126,13 @@ def apo_seeds():
         shutil.copyfile(golden, os.path.join(ROOT, "apo", "golden_v1.apo"))
 
 
+def n3t_seeds():
+    golden = os.path.join(os.path.dirname(ROOT), "..", "tests", "golden", "n3t", "scan_n2.n3t")
+    if os.path.exists(golden):
+        os.makedirs(os.path.join(ROOT, "n3t"), exist_ok=True)
+        shutil.copyfile(golden, os.path.join(ROOT, "n3t", "golden_n2.n3t"))
+
+
 if __name__ == "__main__":
     ply_seeds()
     pcd_seeds()
@@ -134,3 +141,4 @@ if __name__ == "__main__":
     config_seeds()
     las_seeds()
     apo_seeds()
+    n3t_seeds()

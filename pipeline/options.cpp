@@ -45,12 +45,13 @@ Json bakeJson(const BakeOptions& o) {
           {"budget", o.budget},              {"error", o.error},
           {"max-distance", o.maxDistance},
           {"samples", o.samples},            {"complete-depth", o.completeDepth},
-          {"normal-encoding", normalEncodingName(o.encoding)}, {"one-sided", !o.twoSidedLeaves}};
+          {"normal-encoding", normalEncodingName(o.encoding)}, {"one-sided", !o.twoSidedLeaves},
+          {"layout", textureLayoutName(o.layout)}, {"n3-size", o.n3Size}};
 }
 
 Json renderJson(const RenderOptions& o) {
   return {{"size", o.size}, {"views", o.views}, {"no-mipmap", !o.mipmapping}, {"no-filter", !o.filtering},
-          {"frames", o.timedFrames}};
+          {"frames", o.timedFrames}, {"no-point-lod", !o.pointLod}, {"lod-threshold", o.lodThreshold}};
 }
 
 Json exportJson(const ExportOptions& o) {

@@ -30,6 +30,7 @@ struct PipelineData {
   Scan dense;   // M as a mesh (the scan itself when it is one)
   Scan coarse;  // m
   ApoTexture texture;
+  std::optional<N3Tree> n3tree;      // --layout n3tree: what the renders draw
   const Scan* reference = nullptr;   // M as the renders draw it: dense, or the scan's points
   std::optional<ScanProbes> probes;  // point scans: the probes on m judging the asset against the scan
 };
@@ -227,6 +228,11 @@ class Run {
     auto baked = bakeChosen(choice);
     if (!baked) return baked.error();
     data_.texture = std::move(baked->texture);
+    data_.n3tree = std::move(baked->n3tree);
+    if (data_.n3tree) {
+      APO_RETURN_IF_ERROR(writeN3TreeFile(settings_.outDir / "scan.n3t", *data_.n3tree));
+      addFile("n3tree", "scan.n3t");
+    }
     APO_RETURN_IF_ERROR(writeApoFile(settings_.outDir / "scan.apo", data_.texture));
     APO_RETURN_IF_ERROR(writeApoPng(settings_.outDir / "texture.png", data_.texture));
     addFile("apo", "scan.apo");
@@ -238,10 +244,15 @@ class Run {
 
   Status render() {
     progress_.setFraction(0.0);
-    auto views = renderViews(data_.reference, data_.coarse, data_.texture, settings_.options.render,
-                             [&](int done, int total) { progress_.setFraction(static_cast<double>(done) / total); });
+    const auto onViewDone = [&](int done, int total) { progress_.setFraction(static_cast<double>(done) / total); };
+    auto views = data_.n3tree ? renderViews(data_.reference, data_.coarse, *data_.n3tree, settings_.options.render, onViewDone)
+                              : renderViews(data_.reference, data_.coarse, data_.texture, settings_.options.render, onViewDone);
     if (!views) return aboutInput(settings_.input, views.error());
-    const RenderFigures figures = measureViews(*views);
+    RenderFigures figures = measureViews(*views);
+    if (data_.n3tree) {
+      figures.layout = "n3tree";
+      figures.n3Size = data_.n3tree->n;
+    }
     APO_RETURN_IF_ERROR(writeRenderOutputs(settings_.outDir / kRenderFolder, *views, figures, settings_.options.render));
     std::vector<Camera> cameras;
     for (const ViewImages& view : *views) cameras.push_back(view.camera);

@@ -45,6 +45,7 @@ void deleteObject(const Api& api, ObjectKind kind, GLuint id) {
     case ObjectKind::Buffer: api.DeleteBuffers(1, &id); break;
     case ObjectKind::VertexArray: api.DeleteVertexArrays(1, &id); break;
     case ObjectKind::Texture: api.DeleteTextures(1, &id); break;
+    case ObjectKind::Query: api.DeleteQueries(1, &id); break;
   }
 }
 
@@ -64,6 +65,12 @@ Texture makeTexture(const Api& api) {
   GLuint id = 0;
   api.GenTextures(1, &id);
   return Texture(api, id);
+}
+
+Query makeQuery(const Api& api) {
+  GLuint id = 0;
+  api.GenQueries(1, &id);
+  return Query(api, id);
 }
 
 Result<Program> buildProgram(const Api& api, std::string_view vertexSource, std::string_view fragmentSource,

@@ -9,7 +9,7 @@
 
 namespace apo::gl {
 
-enum class ObjectKind { Shader, Program, Buffer, VertexArray, Texture };
+enum class ObjectKind { Shader, Program, Buffer, VertexArray, Texture, Query };
 
 // Deletes one object of that kind (the context it was made in must be current).
 void deleteObject(const Api& api, ObjectKind kind, GLuint id);
@@ -51,11 +51,13 @@ using Program = Object<ObjectKind::Program>;
 using Buffer = Object<ObjectKind::Buffer>;
 using VertexArray = Object<ObjectKind::VertexArray>;
 using Texture = Object<ObjectKind::Texture>;
+using Query = Object<ObjectKind::Query>;
 
 // New, empty names (glGen*); nothing is bound.
 Buffer makeBuffer(const Api& api);
 VertexArray makeVertexArray(const Api& api);
 Texture makeTexture(const Api& api);
+Query makeQuery(const Api& api);
 
 // Compiles the stages and links them; an empty geometry source means no
 // geometry stage. Internal error naming the stage that failed ("vertex

@@ -38,6 +38,29 @@ Result<Texture> uploadRgba8Texture(const Context& context, std::uint32_t width, 
   return uploaded;
 }
 
+Result<Texture> uploadFloatTexture(const Context& context, std::uint32_t width, const std::vector<float>& values,
+                                   std::string_view what) {
+  const std::uint64_t texels = values.size() / 4;
+  const std::uint64_t rows = std::max<std::uint64_t>(1, (texels + width - 1) / width);
+  const auto maxSize = static_cast<std::uint64_t>(context.info().maxTextureSize);
+  if (width == 0 || width > maxSize || rows > maxSize)
+    return badInput("{} needs {} x {} texels; this renderer ({}) takes at most {} per side (GL_MAX_TEXTURE_SIZE)", what, width,
+                    rows, context.info().renderer, maxSize);
+  std::vector<float> padded = values;
+  padded.resize(4 * width * rows, 0.0f);
+  const Api& api = context.api();
+  Texture uploaded = makeTexture(api);
+  api.BindTexture(GL_TEXTURE_2D, uploaded.id());
+  api.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+  api.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+  api.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
+  api.PixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  api.TexImage2D(GL_TEXTURE_2D, 0, GL_RGBA32F, static_cast<GLsizei>(width), static_cast<GLsizei>(rows), 0, GL_RGBA, GL_FLOAT,
+                 padded.data());
+  APO_RETURN_IF_ERROR(checkGlErrors(api, fmt::format("uploading {} as GL_RGBA32F", what)));
+  return uploaded;
+}
+
 Result<Texture> uploadApoTexture(const Context& context, const ApoTexture& texture) {
   return uploadRgba8Texture(context, texture.width, texture.height, 0, texture.texels, "the APO texture");
 }

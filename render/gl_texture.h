@@ -23,4 +23,9 @@ Result<Texture> uploadApoTexture(const Context& context, const ApoTexture& textu
 Result<Texture> uploadRgba8Texture(const Context& context, std::uint32_t width, std::uint32_t height, std::uint32_t depth,
                                    const std::vector<std::uint8_t>& texels, std::string_view what);
 
+// Floats, four per texel (GL_RGBA32F), `width` texels per row: the point
+// LOD's object texture, read with texelFetch.
+Result<Texture> uploadFloatTexture(const Context& context, std::uint32_t width, const std::vector<float>& values,
+                                   std::string_view what);
+
 }  // namespace apo::gl

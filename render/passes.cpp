@@ -59,13 +59,21 @@ Eigen::Matrix4f perspective(const Camera& c) {
 }
 
 // Geometry in GL buffers: a mesh (interleaved position and normal, then
-// indices) or a point cloud as splats (position, normal, disc radius).
+// indices), a point cloud as splats (position, normal, disc radius), or the
+// point LOD's patches (position, normal, radius, errors; then their place
+// in the object texture, integers, in the second buffer).
+enum class GeometryKind { Mesh, Splats, LodPatches };
 struct GpuGeometry {
   gl::VertexArray vertexArray;
   gl::Buffer vertices, indices;
-  GLsizei count = 0;  // indices of a mesh, points of a cloud
-  bool points = false;
+  GLsizei count = 0;  // indices of a mesh, points of a cloud, patches of a LOD
+  GeometryKind kind = GeometryKind::Mesh;
+  gl::Texture objectTexture;  // the LOD's finer levels
+  std::uint64_t primitives() const { return kind == GeometryKind::Mesh ? static_cast<std::uint64_t>(count) / 3 : count; }
 };
+
+// The texels per row of the point LOD's object texture (2 per surfel).
+constexpr std::uint32_t kObjectTextureWidthShift = 12;
 
 // Binds float attributes 0, 1, ... of the given widths, interleaved.
 void describeInterleaved(const gl::Api& api, std::initializer_list<GLint> widths) {
@@ -88,7 +96,7 @@ GpuGeometry uploadMesh(const gl::Api& api, const Scan& mesh) {
   for (std::size_t i = 0; i < mesh.points.size(); ++i)
     for (const Vec3f* v : {&mesh.points.positions[i], &normals[i]}) interleaved.insert(interleaved.end(), v->data(), v->data() + 3);
   GpuGeometry gpu{gl::makeVertexArray(api), gl::makeBuffer(api), gl::makeBuffer(api),
-                  static_cast<GLsizei>(3 * mesh.triangles.size()), false};
+                  static_cast<GLsizei>(3 * mesh.triangles.size()), GeometryKind::Mesh, {}};
   api.BindVertexArray(gpu.vertexArray.id());
   api.BindBuffer(GL_ARRAY_BUFFER, gpu.vertices.id());
   api.BufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(interleaved.size() * sizeof(float)), interleaved.data(),
@@ -114,12 +122,52 @@ Result<GpuGeometry> uploadSplats(const gl::Api& api, const PointSet& points) {
     for (const Vec3f* v : {&points.positions[i], &points.normals[i]}) interleaved.insert(interleaved.end(), v->data(), v->data() + 3);
     interleaved.push_back(radii[i]);
   }
-  GpuGeometry gpu{gl::makeVertexArray(api), gl::makeBuffer(api), gl::Buffer(), static_cast<GLsizei>(points.size()), true};
+  GpuGeometry gpu{gl::makeVertexArray(api), gl::makeBuffer(api), gl::Buffer(), static_cast<GLsizei>(points.size()),
+                  GeometryKind::Splats, {}};
   api.BindVertexArray(gpu.vertexArray.id());
   api.BindBuffer(GL_ARRAY_BUFFER, gpu.vertices.id());
   api.BufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(interleaved.size() * sizeof(float)), interleaved.data(),
                  GL_STATIC_DRAW);
   describeInterleaved(api, {3, 3, 1});
+  api.BindVertexArray(0);
+  return gpu;
+}
+
+// The point LOD: one vertex per patch, its finer levels in the object
+// texture (per surfel: centre and radius, then normal).
+Result<GpuGeometry> uploadPointLod(const gl::Context& context, const PointSet& points) {
+  auto lod = buildPointLod(points);
+  if (!lod) return lod.error();
+  const gl::Api& api = context.api();
+  std::vector<float> surfels;
+  surfels.reserve(8 * lod->objectTexture.size());
+  for (const Surfel& s : lod->objectTexture) {
+    surfels.insert(surfels.end(), {s.position.x(), s.position.y(), s.position.z(), s.radius});
+    surfels.insert(surfels.end(), {s.normal.x(), s.normal.y(), s.normal.z(), 0.0f});
+  }
+  auto texture = gl::uploadFloatTexture(context, 1u << kObjectTextureWidthShift, surfels, "the point LOD's object texture");
+  if (!texture) return texture.error();
+  std::vector<float> floats;
+  std::vector<std::uint32_t> integers;
+  const std::vector<Surfel>& patches = lod->levels[kLodLevels - 1];
+  for (std::size_t i = 0; i < patches.size(); ++i) {
+    const Surfel& p = patches[i];
+    const LodPatch& finer = lod->patches[i];
+    floats.insert(floats.end(), {p.position.x(), p.position.y(), p.position.z(), p.normal.x(), p.normal.y(), p.normal.z(),
+                                 p.radius, lodError(p), finer.maxError[0], finer.maxError[1], finer.maxError[2]});
+    integers.insert(integers.end(), {finer.first, finer.count[0], finer.count[1], finer.count[2]});
+  }
+  GpuGeometry gpu{gl::makeVertexArray(api), gl::makeBuffer(api), gl::makeBuffer(api), static_cast<GLsizei>(patches.size()),
+                  GeometryKind::LodPatches, std::move(texture).value()};
+  api.BindVertexArray(gpu.vertexArray.id());
+  api.BindBuffer(GL_ARRAY_BUFFER, gpu.vertices.id());
+  api.BufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(floats.size() * sizeof(float)), floats.data(), GL_STATIC_DRAW);
+  describeInterleaved(api, {3, 3, 1, 4});
+  api.BindBuffer(GL_ARRAY_BUFFER, gpu.indices.id());
+  api.BufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(integers.size() * sizeof(std::uint32_t)), integers.data(),
+                 GL_STATIC_DRAW);
+  api.EnableVertexAttribArray(4);
+  api.VertexAttribIPointer(4, 4, GL_UNSIGNED_INT, 0, nullptr);
   api.BindVertexArray(0);
   return gpu;
 }
@@ -206,7 +254,7 @@ std::string fragmentSource(std::string_view body, Walk walk, const Layout& layou
 
 // The programs of the passes, built once per context.
 struct Programs {
-  gl::Program vertexNormals, splats, apo, apoCountingFetches, exactness;
+  gl::Program vertexNormals, splats, pointLod, apo, apoCountingFetches, exactness;
 };
 
 Result<Programs> buildPrograms(const gl::Api& api, const Layout& layout) {
@@ -220,6 +268,7 @@ Result<Programs> buildPrograms(const gl::Api& api, const Layout& layout) {
   };
   APO_RETURN_IF_ERROR(build(programs.vertexNormals, shaders::kVertexNormalFragment, Walk::None));
   APO_RETURN_IF_ERROR(build(programs.splats, shaders::kSplatFragment, Walk::None, shaders::kSplatVertex, shaders::kSplatGeometry));
+  APO_RETURN_IF_ERROR(build(programs.pointLod, shaders::kSplatFragment, Walk::None, shaders::kLodVertex, shaders::kLodGeometry));
   APO_RETURN_IF_ERROR(build(programs.apo, shaders::kApoFragment, Walk::Plain));
   APO_RETURN_IF_ERROR(build(programs.apoCountingFetches, shaders::kApoFragment, Walk::CountingFetches));
   APO_RETURN_IF_ERROR(build(programs.exactness, shaders::kApoExactnessFragment, Walk::Plain));
@@ -232,6 +281,11 @@ void setCameraUniforms(const gl::Api& api, GLuint program, const Camera& camera)
   api.Uniform3f(api.GetUniformLocation(program, "eye"), camera.eye.x(), camera.eye.y(), camera.eye.z());
 }
 
+// Screen pixels one world unit covers at distance 1 from the eye.
+float pixelsPerWorldUnitAtOne(const Camera& camera, int size) {
+  return static_cast<float>(size) / (2.0f * std::tan(0.5f * radians(camera.fovYDegrees)));
+}
+
 void setWalkUniforms(const gl::Api& api, GLuint program, const Layout& layout, const Camera& camera, int size,
                      bool mipmapping) {
   layout.setUniforms(api, program);
@@ -241,13 +295,12 @@ void setWalkUniforms(const gl::Api& api, GLuint program, const Layout& layout, c
   api.Uniform3f(api.GetUniformLocation(program, "unitOffset"), static_cast<float>(layout.transform.offset[0]),
                 static_cast<float>(layout.transform.offset[1]), static_cast<float>(layout.transform.offset[2]));
   api.Uniform1i(api.GetUniformLocation(program, "mipmapping"), mipmapping ? 1 : 0);
-  api.Uniform1f(api.GetUniformLocation(program, "pixelsPerWorldUnitAtOne"),
-                static_cast<float>(size) / (2.0f * std::tan(0.5f * radians(camera.fovYDegrees))));
+  api.Uniform1f(api.GetUniformLocation(program, "pixelsPerWorldUnitAtOne"), pixelsPerWorldUnitAtOne(camera, size));
 }
 
 void draw(const gl::Api& api, const GpuGeometry& geometry) {
   api.BindVertexArray(geometry.vertexArray.id());
-  if (geometry.points)
+  if (geometry.kind != GeometryKind::Mesh)
     api.DrawArrays(GL_POINTS, 0, geometry.count);
   else
     api.DrawElements(GL_TRIANGLES, geometry.count, GL_UNSIGNED_INT, nullptr);
@@ -338,17 +391,52 @@ void useApoProgram(const ApoScene& scene, GLuint program, const Camera& camera, 
   api.ActiveTexture(GL_TEXTURE0);
 }
 
-Result<GpuGeometry> uploadDetail(const gl::Api& api, const Scan& detail) {
-  if (detail.isMesh()) return uploadMesh(api, detail);
-  return uploadSplats(api, detail.points);
+Result<GpuGeometry> uploadDetail(const gl::Context& context, const Scan& detail, bool pointLod) {
+  if (detail.isMesh()) return uploadMesh(context.api(), detail);
+  if (pointLod) return uploadPointLod(context, detail.points);
+  return uploadSplats(context.api(), detail.points);
 }
 
-// The reference pass: M with its normals, and its frame time.
-Status renderReference(const ApoScene& scene, const GpuGeometry& detail, const Camera& camera, int frames, ViewImages& view) {
-  const GLuint program = detail.points ? scene.programs.splats.id() : scene.programs.vertexNormals.id();
+GLuint referenceProgram(const ApoScene& scene, const GpuGeometry& detail) {
+  switch (detail.kind) {
+    case GeometryKind::Mesh: return scene.programs.vertexNormals.id();
+    case GeometryKind::Splats: return scene.programs.splats.id();
+    case GeometryKind::LodPatches: return scene.programs.pointLod.id();
+  }
+  return 0;
+}
+
+// The point LOD's uniforms and object texture (the camera's are set per frame).
+void useLodProgram(const ApoScene& scene, const GpuGeometry& detail, const Camera& camera, float threshold) {
+  const gl::Api& api = scene.context->api();
+  const GLuint program = scene.programs.pointLod.id();
+  api.UseProgram(program);
+  api.Uniform1f(api.GetUniformLocation(program, "pixelsPerWorldUnitAtOne"), pixelsPerWorldUnitAtOne(camera, scene.context->width()));
+  api.Uniform1f(api.GetUniformLocation(program, "lodThreshold"), threshold);
+  api.Uniform1i(api.GetUniformLocation(program, "objectTexture"), 0);
+  api.Uniform1i(api.GetUniformLocation(program, "objectWidthShift"), static_cast<GLint>(kObjectTextureWidthShift));
+  api.ActiveTexture(GL_TEXTURE0);
+  api.BindTexture(GL_TEXTURE_2D, detail.objectTexture.id());
+}
+
+// The reference pass: M with its normals, its frame time, and its
+// primitives sent and drawn (surfels: two triangles each).
+Status renderReference(const ApoScene& scene, const GpuGeometry& detail, const Camera& camera, const RenderOptions& options,
+                       ViewImages& view) {
+  const GLuint program = referenceProgram(scene, detail);
+  if (detail.kind == GeometryKind::LodPatches) useLodProgram(scene, detail, camera, options.lodThreshold);
+  const gl::Api& api = scene.context->api();
+  const gl::Query generated = gl::makeQuery(api);
+  api.BeginQuery(GL_PRIMITIVES_GENERATED, generated.id());
   auto pass = renderPass(*scene.context, program, detail, camera);
+  api.EndQuery(GL_PRIMITIVES_GENERATED);
   if (!pass) return pass.error();
+  GLuint64 primitives = 0;
+  api.GetQueryObjectui64v(generated.id(), GL_QUERY_RESULT, &primitives);
+  view.cost.referenceSent = detail.primitives();
+  view.cost.referenceDrawn = detail.kind == GeometryKind::Mesh ? primitives : primitives / 2;
   view.reference = std::move(pass).value();
+  const int frames = options.timedFrames;
   auto milliseconds = timePass(*scene.context, program, detail, camera, frames);
   if (!milliseconds) return milliseconds.error();
   view.cost.referenceMilliseconds = *milliseconds;
@@ -423,6 +511,8 @@ Status validateRenderOptions(const RenderOptions& options) {
     return usageError("--views must be in [1, {}], got {}", kStandardViewCount, options.views);
   if (options.timedFrames < 0 || options.timedFrames > kMostTimedFrames)
     return usageError("--frames must be in [0, {}], got {}", kMostTimedFrames, options.timedFrames);
+  if (!(options.lodThreshold > 0.0f) || options.lodThreshold > 1000.0f)
+    return usageError("--lod-threshold must be in (0, 1000] pixels, got {}", options.lodThreshold);
   return okStatus();
 }
 
@@ -435,7 +525,7 @@ Result<std::vector<ViewImages>> renderViewsWith(const Scan* detail, const Scan& 
   if (!scene) return scene.error();
   std::optional<GpuGeometry> detailGeometry;
   if (detail) {
-    auto uploaded = uploadDetail(scene->context->api(), *detail);
+    auto uploaded = uploadDetail(*scene->context, *detail, options.pointLod);
     if (!uploaded) return uploaded.error();
     detailGeometry = std::move(uploaded).value();
   }
@@ -445,7 +535,7 @@ Result<std::vector<ViewImages>> renderViewsWith(const Scan* detail, const Scan& 
   for (const Camera& camera : cameras) {
     ViewImages view;
     view.camera = camera;
-    if (detailGeometry) APO_RETURN_IF_ERROR(renderReference(*scene, *detailGeometry, camera, options.timedFrames, view));
+    if (detailGeometry) APO_RETURN_IF_ERROR(renderReference(*scene, *detailGeometry, camera, options, view));
     APO_RETURN_IF_ERROR(renderBaseline(*scene, camera, options.timedFrames, view));
     APO_RETURN_IF_ERROR(renderApo(*scene, camera, options, view));
     views.push_back(std::move(view));

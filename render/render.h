@@ -9,6 +9,8 @@
 #include "core/geometry.h"
 #include "core/ray_caster.h"
 
+#include <algorithm>
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -80,6 +82,65 @@ Image errorHeatMap(const std::vector<float>& degrees, int width, int height, flo
 
 Status writeImagePng(const std::filesystem::path& path, const Image& image);
 
+// ---- Point-based LOD with object textures (Maximo et al.) -------------------
+
+// An oriented disc. Its perpendicular error (Sequential Point Trees,
+// Dachsbacher et al. 2003) is the thickness, along its normal, of the
+// samples it stands for; its normal spread, the largest angle (radians)
+// between its normal and theirs.
+struct Surfel {
+  Vec3f position = Vec3f::Zero(), normal = Vec3f::UnitZ();
+  float radius = 0.0f;
+  float perpendicularError = 0.0f;
+  float normalSpread = 0.0f;
+};
+
+// What the LOD compares with its threshold (world units, projected to
+// pixels): the perpendicular error, or, where larger, the disc's radius
+// times its normal spread. A reference for normals needs the second: a
+// coarse disc facing the eye is thin, yet shades every pixel it covers
+// with one averaged normal (docs/render.md, "Point LOD").
+inline float lodError(const Surfel& s) { return std::max(s.perpendicularError, s.radius * s.normalSpread); }
+
+inline constexpr int kLodLevels = 4;
+inline constexpr std::size_t kLodFanOut = 4;  // samples merged into one, at most
+
+// What a patch (a sample of the coarsest level) holds in the object
+// texture: its samples of levels 2, 1 and 0, in that order from `first`.
+struct LodPatch {
+  std::uint32_t first = 0;
+  std::array<std::uint32_t, 3> count = {0, 0, 0};  // at most 4, 16, 64
+  std::array<float, 3> maxError = {0, 0, 0};       // the largest lodError of each of those levels
+};
+
+// levels[0] are the points (discs of their local spacing, capped at twice
+// its median), levels[k + 1] merge up to 4 adjacent samples of levels[k]
+// (same side: normals less than 90 degrees apart; centres within twice the
+// larger radius), grouped in Morton order. levels[3] are the patches sent to
+// the GPU; objectTexture holds every patch's finer samples.
+struct PointLod {
+  std::array<std::vector<Surfel>, kLodLevels> levels;
+  std::array<std::vector<std::uint32_t>, kLodLevels - 1> parent;  // each sample's in the next level
+  std::vector<Surfel> objectTexture;
+  std::vector<LodPatch> patches;  // one per levels[3] sample, in its order
+};
+
+// BadInput when the points have no normals.
+Result<PointLod> buildPointLod(const PointSet& points);
+// The sample standing for `children` (not empty): centre and normal
+// averaged by disc area, the radius enclosing their discs, and the
+// perpendicular error: the extent along the merged normal of every child's
+// centre, disc tilt and own error.
+Surfel mergeSurfels(const std::vector<Surfel>& children);
+// A perpendicular error in pixels at `eye` (the geometry shader's
+// projection).
+float projectedLodError(float perpendicularError, const Vec3f& position, const Vec3f& eye, float pixelsPerWorldUnitAtOne);
+// The level the geometry shader draws for a patch: the coarsest (3: the
+// patch itself, then 2, 1) whose largest projected lodError is at most
+// `thresholdPixels`, else 0, the points.
+int chooseLodLevel(const Surfel& patch, const LodPatch& finer, const Vec3f& eye, float pixelsPerWorldUnitAtOne,
+                   float thresholdPixels);
+
 // ---- Cameras and passes (OSMesa) --------------------------------------------
 
 struct Camera {
@@ -99,11 +160,18 @@ struct RenderOptions {
   bool mipmapping = true;   // paper 5.2: stop where a cell is smaller than a pixel
   bool filtering = false;   // paper 5.3: trilinear blend of the 8 neighbouring cells
   int timedFrames = 5;      // frames timed per pass and view (their median); 0: no timing
+  // M as points: drawn through the point LOD (Maximo et al.; docs/render.md
+  // "Point LOD"), each patch at the coarsest level whose projected
+  // perpendicular error is at most `lodThreshold` pixels; false: every
+  // point's disc.
+  bool pointLod = true;
+  float lodThreshold = 0.01f;
 };
 
 // Usage error naming the option when one is out of range: size in [1, 16384]
 // (llvmpipe's largest render target; a smaller GPU limit is refused when the
-// context is made), views in [1, 14], timed frames in [0, 1000].
+// context is made), views in [1, 14], timed frames in [0, 1000], the LOD
+// threshold in (0, 1000] pixels.
 Status validateRenderOptions(const RenderOptions& options);
 
 // Texel reads per fragment of the APO pass, over the pixels m covers.
@@ -120,6 +188,9 @@ struct FetchCounts {
 struct ViewCost {
   double referenceMilliseconds = 0.0, baselineMilliseconds = 0.0, apoMilliseconds = 0.0;
   FetchCounts apoFetches;
+  // The reference pass's primitives: sent (M's triangles, its points, or
+  // the point LOD's patches) and drawn (triangles, or surfels emitted).
+  std::uint64_t referenceSent = 0, referenceDrawn = 0;
 };
 
 struct PassImages {
@@ -167,11 +238,19 @@ struct ViewFigures {
 struct RenderCost {
   double referenceMilliseconds = 0.0, baselineMilliseconds = 0.0, apoMilliseconds = 0.0;
   FetchCounts apoFetches;
+  // The reference's primitives sent (the same in every view) and drawn
+  // (the mean over the views).
+  std::uint64_t referenceSent = 0;
+  double referenceDrawn = 0.0;
 };
 
 RenderCost totalCost(const std::vector<ViewImages>& views);
 
 struct RenderFigures {
+  // What the APO pass walked: "apo", or "n3tree" with its N (set by the
+  // caller, which chose the layout).
+  std::string layout = "apo";
+  int n3Size = 0;
   std::vector<ViewFigures> views;
   AngularStats apo, baseline;  // over the pixels of all views
   ImageMetrics apoImage, baselineImage;  // pooled over the views

@@ -50,7 +50,8 @@ nlohmann::ordered_json costJson(const Cost& c) {
   return {{"reference_frame_ms", c.referenceMilliseconds},
           {"baseline_frame_ms", c.baselineMilliseconds},
           {"apo_frame_ms", c.apoMilliseconds},
-          {"apo_texel_fetches", fetchesJson(c.apoFetches)}};
+          {"apo_texel_fetches", fetchesJson(c.apoFetches)},
+          {"reference_primitives", {{"sent", c.referenceSent}, {"drawn", c.referenceDrawn}}}};
 }
 
 }  // namespace
@@ -62,6 +63,8 @@ RenderCost totalCost(const std::vector<ViewImages>& views) {
     total.referenceMilliseconds += view.cost.referenceMilliseconds;
     total.baselineMilliseconds += view.cost.baselineMilliseconds;
     total.apoMilliseconds += view.cost.apoMilliseconds;
+    total.referenceSent = view.cost.referenceSent;
+    total.referenceDrawn += static_cast<double>(view.cost.referenceDrawn);
     total.apoFetches.fragments += view.cost.apoFetches.fragments;
     total.apoFetches.max = std::max(total.apoFetches.max, view.cost.apoFetches.max);
     fetchSum += view.cost.apoFetches.mean * static_cast<double>(view.cost.apoFetches.fragments);
@@ -71,6 +74,7 @@ RenderCost totalCost(const std::vector<ViewImages>& views) {
     total.referenceMilliseconds /= count;
     total.baselineMilliseconds /= count;
     total.apoMilliseconds /= count;
+    total.referenceDrawn /= count;
   }
   if (total.apoFetches.fragments > 0) total.apoFetches.mean = fetchSum / static_cast<double>(total.apoFetches.fragments);
   return total;
@@ -133,6 +137,7 @@ std::string renderReportJson(const RenderFigures& figures, const RenderOptions& 
   json["format_version"] = 1;
   json["options"] = {{"size", options.size}, {"views", options.views}, {"mipmapping", options.mipmapping},
                      {"filtering", options.filtering}, {"timed_frames", options.timedFrames}};
+  json["layout"] = {{"name", figures.layout}, {"n", figures.layout == "apo" ? nlohmann::ordered_json() : nlohmann::ordered_json(figures.n3Size)}};
   json["overall"] = {{"apo", anglesJson(figures.apo)},
                      {"baseline", anglesJson(figures.baseline)},
                      {"baseline_over_apo", figures.apo.mean > 0.0 ? figures.baseline.mean / figures.apo.mean : 0.0},

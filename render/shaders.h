@@ -65,6 +65,88 @@ void main() {
 }
 )";
 
+// M as points through the point LOD (Maximo et al.): one vertex per patch
+// (a sample of the coarsest level) with its error per level and where its
+// finer samples lie in the object texture; the geometry shader projects the
+// errors, picks the coarsest level within the threshold (render.h
+// chooseLodLevel) and emits that level's surfels, read from the texture, as
+// kSplatGeometry does. kSplatFragment cuts the discs.
+inline constexpr std::string_view kLodVertex = R"(#version 450 core
+layout(location = 0) in vec3 position;
+layout(location = 1) in vec3 normal;
+layout(location = 2) in float radius;
+layout(location = 3) in vec4 errors;        // the patch's own, then the largest of levels 2, 1, 0
+layout(location = 4) in uvec4 samples;      // first surfel, then the counts of levels 2, 1, 0
+out vec3 patchNormal;
+out float patchRadius;
+out vec4 patchErrors;
+flat out uvec4 patchSamples;
+void main() {
+  gl_Position = vec4(position, 1.0);
+  patchNormal = normal;
+  patchRadius = radius;
+  patchErrors = errors;
+  patchSamples = samples;
+}
+)";
+
+inline constexpr std::string_view kLodGeometry = R"(#version 450 core
+layout(points) in;
+layout(triangle_strip, max_vertices = 256) out;
+in vec3 patchNormal[];
+in float patchRadius[];
+in vec4 patchErrors[];
+flat in uvec4 patchSamples[];
+uniform mat4 viewProjection;
+uniform vec3 eye;
+uniform float pixelsPerWorldUnitAtOne;
+uniform float lodThreshold;        // pixels
+uniform sampler2D objectTexture;   // RGBA32F: per surfel (centre, radius), (normal, 0)
+uniform int objectWidthShift;
+out vec3 worldPosition;
+out vec3 worldNormal;
+out vec2 discCoordinates;
+
+void emitSurfel(vec3 centre, vec3 n, float r) {
+  n = normalize(n);
+  vec3 u = normalize(cross(n, abs(n.x) < 0.9 ? vec3(1.0, 0.0, 0.0) : vec3(0.0, 1.0, 0.0)));
+  vec3 v = cross(n, u);
+  for (int corner = 0; corner < 4; ++corner) {
+    vec2 d = vec2((corner & 1) != 0 ? 1.0 : -1.0, (corner & 2) != 0 ? 1.0 : -1.0);
+    worldPosition = centre + r * (d.x * u + d.y * v);
+    worldNormal = n;
+    discCoordinates = d;
+    gl_Position = viewProjection * vec4(worldPosition, 1.0);
+    EmitVertex();
+  }
+  EndPrimitive();
+}
+
+vec4 objectTexel(uint index) {
+  uint mask = (1u << uint(objectWidthShift)) - 1u;
+  return texelFetch(objectTexture, ivec2(int(index & mask), int(index >> uint(objectWidthShift))), 0);
+}
+
+void main() {
+  vec3 centre = gl_in[0].gl_Position.xyz;
+  float pixelsPerUnit = pixelsPerWorldUnitAtOne / max(length(eye - centre), 1e-30);
+  vec4 e = patchErrors[0] * pixelsPerUnit;
+  int level = e.x <= lodThreshold ? 3 : e.y <= lodThreshold ? 2 : e.z <= lodThreshold ? 1 : 0;
+  if (level == 3) {
+    emitSurfel(centre, patchNormal[0], patchRadius[0]);
+    return;
+  }
+  uvec4 s = patchSamples[0];
+  uint first = s.x + (level <= 1 ? s.y : 0u) + (level == 0 ? s.z : 0u);
+  uint count = level == 2 ? s.y : level == 1 ? s.z : s.w;
+  for (uint i = 0u; i < count; ++i) {
+    vec4 a = objectTexel(2u * (first + i));
+    vec4 b = objectTexel(2u * (first + i) + 1u);
+    emitSurfel(a.xyz, b.xyz, a.w);
+  }
+}
+)";
+
 inline constexpr std::string_view kSplatFragment = R"(
 in vec3 worldPosition;
 in vec3 worldNormal;

@@ -93,6 +93,12 @@ std::string defaultOsMesaLibrary();
   X(PFNGLBINDVERTEXARRAYPROC, BindVertexArray)                                \
   X(PFNGLENABLEVERTEXATTRIBARRAYPROC, EnableVertexAttribArray)                \
   X(PFNGLVERTEXATTRIBPOINTERPROC, VertexAttribPointer)                        \
+  X(PFNGLVERTEXATTRIBIPOINTERPROC, VertexAttribIPointer)                      \
+  X(PFNGLGENQUERIESPROC, GenQueries)                                          \
+  X(PFNGLDELETEQUERIESPROC, DeleteQueries)                                    \
+  X(PFNGLBEGINQUERYPROC, BeginQuery)                                          \
+  X(PFNGLENDQUERYPROC, EndQuery)                                              \
+  X(PFNGLGETQUERYOBJECTUI64VPROC, GetQueryObjectui64v)                        \
   X(PFNGLDRAWARRAYSPROC, DrawArrays)                                          \
   X(PFNGLDRAWELEMENTSPROC, DrawElements)
 

@@ -112,7 +112,9 @@ TEST(N3Tree, WalksAgreeWithTheOctreeOnRandomTrees) {
           ASSERT_EQ(actual.normal, quantised(expected.normal, encoding)) << "N " << n << " at " << p.transpose();
           ASSERT_EQ(actual.average, !atLeaf);
         }
-        if (n == 2) ASSERT_EQ(actual.depth, expected.depth);
+        if (n == 2) {
+          ASSERT_EQ(actual.depth, expected.depth);
+        }
         if (atLeaf) {
           // A leaf between two levels of N = 4 fills the cells below it.
           ASSERT_GE(actual.depth, expected.depth);
@@ -142,10 +144,13 @@ TEST(N3Tree, MaxDepthStopsAtTheNodesAverage) {
       // N = 4 walks two octree levels per grid: it stops at the even depth at or above.
       const N3Lookup coarser = lookupN3Tree(four, p, maxDepth);
       ASSERT_LE(coarser.depth, maxDepth);
-      if (coarser.average) ASSERT_EQ(coarser.depth % 2, 0);
+      if (coarser.average) {
+        ASSERT_EQ(coarser.depth % 2, 0);
+      }
       const Lookup there = lookupOctree(octree, p, coarser.depth);
-      if (coarser.average && there.depth == coarser.depth)
+      if (coarser.average && there.depth == coarser.depth) {
         ASSERT_EQ(coarser.normal, quantised(there.normal, NormalEncoding::Oct24));
+      }
     }
   }
 }

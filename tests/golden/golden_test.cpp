@@ -8,7 +8,8 @@
 // v1/ holds the .apo of format version 1: whatever later versions write, the
 // v1 file must stay readable with the same normals (ReadsTheV1Apo). v4/
 // holds one of format version 4 (two-sided leaves, leaves and internal nodes
-// showing m's normal), read the same way (ReadsTheV4Apo).
+// showing m's normal), read the same way (ReadsTheV4Apo). n3t/ holds
+// N^3-trees, .n3t version 1 (BakeGivesTheGoldenN3Trees).
 #include "core/file_io.h"
 #include "format/format.h"
 #include "ingest/ingest.h"
@@ -213,6 +214,61 @@ TEST_F(Golden, BakeWithTwoSidedLeavesGivesTheGoldenV4Apo) {
   const std::string bytes = apoBytes(bake->texture);
   EXPECT_EQ(bytes[8], 4) << "format version";
   expectGolden(bytes, kGolden / "v4" / "thin_shell.apo", apoField);
+}
+
+// The N^3-trees (docs/n3tree-format.md) of the golden bake (N = 2) and of
+// the thin shell's (N = 4: two-sided leaves, cells showing m), version 1 of
+// the .n3t file; read back, they walk to what they were built from.
+std::string n3tField(const std::string& bytes, std::size_t offset) {
+  constexpr std::size_t kHeaderBytes = 136;
+  if (offset < kHeaderBytes) return fmt::format("the header, byte {} (docs/n3tree-format.md)", offset);
+  return fmt::format("the payload, byte {} (cell {}, channel {})", offset - kHeaderBytes, (offset - kHeaderBytes) / 4,
+                     "RGBA"[(offset - kHeaderBytes) % 4]);
+}
+
+std::string n3tBytes(const N3Tree& tree) {
+  const fs::path path = test::freshTempDir() / "scan.n3t";
+  EXPECT_TRUE(writeN3TreeFile(path, tree).ok());
+  return readFileBytes(path).value();
+}
+
+TEST_F(Golden, BakeGivesTheGoldenN3Trees) {
+  auto m = readScan(kCurrent / "m.ply");
+  ASSERT_TRUE(m.ok()) << m.error().message;
+  BakeOptions options = goldenBake();
+  options.layout = TextureLayout::N3Tree;
+  auto bake = bakeApo(*input_, *m, options);
+  ASSERT_TRUE(bake.ok() && bake->n3tree) << (bake.ok() ? "no tree" : bake.error().message);
+  expectGolden(n3tBytes(*bake->n3tree), kGolden / "n3t" / "scan_n2.n3t", n3tField);
+
+  const ThinShellInput in;
+  BakeOptions thin = goldenBake();
+  thin.error = 0.0;
+  thin.budget = 16000;
+  thin.layout = TextureLayout::N3Tree;
+  thin.n3Size = 4;
+  auto shell = bakeApo(in.detail, in.coarse, thin);
+  ASSERT_TRUE(shell.ok() && shell->n3tree) << (shell.ok() ? "no tree" : shell.error().message);
+  EXPECT_GT(shell->n3tree->twoSidedLeaves, 0u);
+  EXPECT_TRUE(shell->n3tree->defersToCoarse || shell->n3tree->coarseAtInternalNodes);
+  expectGolden(n3tBytes(*shell->n3tree), kGolden / "n3t" / "thin_shell_n4.n3t", n3tField);
+  for (const char* name : {"scan_n2.n3t", "thin_shell_n4.n3t"}) {
+    auto read = readN3TreeFile(kGolden / "n3t" / name);
+    ASSERT_TRUE(read.ok()) << read.error().message;
+  }
+  // The golden N = 2 tree walks to the golden APO's normals at the input's vertices.
+  auto golden = readN3TreeFile(kGolden / "n3t" / "scan_n2.n3t");
+  auto apo = readApoFile(kCurrent / "scan.apo");
+  ASSERT_TRUE(golden.ok() && apo.ok());
+  for (const Vec3f& p : input_->points.positions) {
+    const Vec3f unit = apo->transform.toUnit(p);
+    const Lookup expected = lookupTexture(*apo, unit);
+    const N3Lookup actual = lookupN3Tree(*golden, unit);
+    // Where the APO's grid cell is empty, the tree still has the ancestors' averages.
+    if (!expected.found) continue;
+    ASSERT_TRUE(actual.found);
+    ASSERT_EQ(actual.normal, expected.normal) << p.transpose();
+  }
 }
 
 // Normals of the v4 golden at points of both sheets of m, given m's normal
