@@ -368,19 +368,7 @@ Status writeApoFile(const fs::path& path, const ApoTexture& texture) {
 }
 
 Result<ApoTexture> readApoFile(const fs::path& path) {
-  APO_RETURN_IF_ERROR(checkReadableFile(path));
-  std::error_code ec;
-  const std::uintmax_t fileSize = fs::file_size(path, ec);
-  if (ec) return badInput("{}: cannot read its size: {}", path.string(), ec.message());
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return badInput("{}: cannot be opened: {}", path.string(), std::strerror(errno));
-  try {
-    Result<ApoTexture> texture = readTexture(in, fileSize);
-    if (!texture.ok()) return badInput("{}: {}", path.string(), texture.error().message);
-    return texture;
-  } catch (const std::bad_alloc&) {
-    return badInput("{}: not enough memory to hold its {} bytes", path.string(), fileSize);
-  }
+  return readBinaryFile<ApoTexture>(path, [](std::istream& in, std::uint64_t fileSize) { return readTexture(in, fileSize); });
 }
 
 std::string describeApoFileByte(std::string_view bytes, std::uint64_t offset) {

@@ -7,6 +7,10 @@
 #include "core/file_io.h"
 
 #include <array>
+#include <cerrno>
+#include <filesystem>
+#include <fstream>
+#include <new>
 #include <bit>
 #include <cstdint>
 #include <cstring>
@@ -106,5 +110,24 @@ class HeaderReader {
   std::string_view bytes_;
   std::uint64_t fileSize_;
 };
+
+// A binary file read by `readFrom(stream, fileSize)` (which knows nothing of
+// the path): errors prefixed with the path, memory exhaustion a BadInput.
+template <class T, class ReadFrom>
+Result<T> readBinaryFile(const std::filesystem::path& path, ReadFrom&& readFrom) {
+  APO_RETURN_IF_ERROR(checkReadableFile(path));
+  std::error_code ec;
+  const std::uintmax_t fileSize = std::filesystem::file_size(path, ec);
+  if (ec) return badInput("{}: cannot read its size: {}", path.string(), ec.message());
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return badInput("{}: cannot be opened: {}", path.string(), std::strerror(errno));
+  try {
+    Result<T> read = readFrom(in, static_cast<std::uint64_t>(fileSize));
+    if (!read.ok()) return badInput("{}: {}", path.string(), read.error().message);
+    return read;
+  } catch (const std::bad_alloc&) {
+    return badInput("{}: not enough memory to hold its {} bytes", path.string(), fileSize);
+  }
+}
 
 }  // namespace apo::header_io

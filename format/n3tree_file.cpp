@@ -220,19 +220,7 @@ Status writeN3TreeFile(const fs::path& path, const N3Tree& tree) {
 }
 
 Result<N3Tree> readN3TreeFile(const fs::path& path) {
-  APO_RETURN_IF_ERROR(checkReadableFile(path));
-  std::error_code ec;
-  const std::uintmax_t fileSize = fs::file_size(path, ec);
-  if (ec) return badInput("{}: cannot read its size: {}", path.string(), ec.message());
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return badInput("{}: cannot be opened: {}", path.string(), std::strerror(errno));
-  try {
-    Result<N3Tree> tree = readTree(in, fileSize);
-    if (!tree.ok()) return badInput("{}: {}", path.string(), tree.error().message);
-    return tree;
-  } catch (const std::bad_alloc&) {
-    return badInput("{}: not enough memory to hold its {} bytes", path.string(), fileSize);
-  }
+  return readBinaryFile<N3Tree>(path, [](std::istream& in, std::uint64_t fileSize) { return readTree(in, fileSize); });
 }
 
 Result<N3Tree> parseN3TreeFile(std::string_view bytes) {

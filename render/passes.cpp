@@ -267,8 +267,12 @@ Result<Programs> buildPrograms(const gl::Api& api, const Layout& layout) {
     return okStatus();
   };
   APO_RETURN_IF_ERROR(build(programs.vertexNormals, shaders::kVertexNormalFragment, Walk::None));
-  APO_RETURN_IF_ERROR(build(programs.splats, shaders::kSplatFragment, Walk::None, shaders::kSplatVertex, shaders::kSplatGeometry));
-  APO_RETURN_IF_ERROR(build(programs.pointLod, shaders::kSplatFragment, Walk::None, shaders::kLodVertex, shaders::kLodGeometry));
+  const std::string splatGeometry = std::string(shaders::kSplatGeometry) + std::string(shaders::kEmitSurfel) +
+                                    std::string(shaders::kSplatGeometryMain);
+  const std::string lodGeometry = std::string(shaders::kLodGeometry) + std::string(shaders::kEmitSurfel) +
+                                  std::string(shaders::kLodGeometryMain);
+  APO_RETURN_IF_ERROR(build(programs.splats, shaders::kSplatFragment, Walk::None, shaders::kSplatVertex, splatGeometry));
+  APO_RETURN_IF_ERROR(build(programs.pointLod, shaders::kSplatFragment, Walk::None, shaders::kLodVertex, lodGeometry));
   APO_RETURN_IF_ERROR(build(programs.apo, shaders::kApoFragment, Walk::Plain));
   APO_RETURN_IF_ERROR(build(programs.apoCountingFetches, shaders::kApoFragment, Walk::CountingFetches));
   APO_RETURN_IF_ERROR(build(programs.exactness, shaders::kApoExactnessFragment, Walk::Plain));

@@ -25,7 +25,8 @@ void main() {
 
 // M as points: each point an oriented disc (surfel) of its spacing's radius,
 // flat-shaded with the point's normal. The geometry stage turns each point
-// into a square in its tangent plane; the fragment stage cuts the disc out.
+// into a square in its tangent plane (kEmitSurfel); the fragment stage cuts
+// the disc out.
 inline constexpr std::string_view kSplatVertex = R"(#version 450 core
 layout(location = 0) in vec3 position;
 layout(location = 1) in vec3 normal;
@@ -39,6 +40,26 @@ void main() {
 }
 )";
 
+// One surfel as a square in its tangent plane (the fragment stage cuts the
+// disc), for both geometry shaders below; they declare its outputs.
+inline constexpr std::string_view kEmitSurfel = R"(
+void emitSurfel(vec3 centre, vec3 n, float r) {
+  n = normalize(n);
+  vec3 u = normalize(cross(n, abs(n.x) < 0.9 ? vec3(1.0, 0.0, 0.0) : vec3(0.0, 1.0, 0.0)));
+  vec3 v = cross(n, u);
+  for (int corner = 0; corner < 4; ++corner) {
+    vec2 d = vec2((corner & 1) != 0 ? 1.0 : -1.0, (corner & 2) != 0 ? 1.0 : -1.0);
+    worldPosition = centre + r * (d.x * u + d.y * v);
+    worldNormal = n;
+    discCoordinates = d;
+    gl_Position = viewProjection * vec4(worldPosition, 1.0);
+    EmitVertex();
+  }
+  EndPrimitive();
+}
+)";
+
+// Every point as its surfel.
 inline constexpr std::string_view kSplatGeometry = R"(#version 450 core
 layout(points) in;
 layout(triangle_strip, max_vertices = 4) out;
@@ -48,21 +69,9 @@ uniform mat4 viewProjection;
 out vec3 worldPosition;
 out vec3 worldNormal;
 out vec2 discCoordinates;
-void main() {
-  vec3 centre = gl_in[0].gl_Position.xyz;
-  vec3 n = normalize(splatNormal[0]);
-  vec3 u = normalize(cross(n, abs(n.x) < 0.9 ? vec3(1.0, 0.0, 0.0) : vec3(0.0, 1.0, 0.0)));
-  vec3 v = cross(n, u);
-  for (int corner = 0; corner < 4; ++corner) {
-    vec2 d = vec2((corner & 1) != 0 ? 1.0 : -1.0, (corner & 2) != 0 ? 1.0 : -1.0);
-    worldPosition = centre + splatRadius[0] * (d.x * u + d.y * v);
-    worldNormal = n;
-    discCoordinates = d;
-    gl_Position = viewProjection * vec4(worldPosition, 1.0);
-    EmitVertex();
-  }
-  EndPrimitive();
-}
+)";
+inline constexpr std::string_view kSplatGeometryMain = R"(
+void main() { emitSurfel(gl_in[0].gl_Position.xyz, splatNormal[0], splatRadius[0]); }
 )";
 
 // M as points through the point LOD (Maximo et al.): one vertex per patch
@@ -107,21 +116,8 @@ out vec3 worldPosition;
 out vec3 worldNormal;
 out vec2 discCoordinates;
 
-void emitSurfel(vec3 centre, vec3 n, float r) {
-  n = normalize(n);
-  vec3 u = normalize(cross(n, abs(n.x) < 0.9 ? vec3(1.0, 0.0, 0.0) : vec3(0.0, 1.0, 0.0)));
-  vec3 v = cross(n, u);
-  for (int corner = 0; corner < 4; ++corner) {
-    vec2 d = vec2((corner & 1) != 0 ? 1.0 : -1.0, (corner & 2) != 0 ? 1.0 : -1.0);
-    worldPosition = centre + r * (d.x * u + d.y * v);
-    worldNormal = n;
-    discCoordinates = d;
-    gl_Position = viewProjection * vec4(worldPosition, 1.0);
-    EmitVertex();
-  }
-  EndPrimitive();
-}
-
+)";
+inline constexpr std::string_view kLodGeometryMain = R"(
 vec4 objectTexel(uint index) {
   uint mask = (1u << uint(objectWidthShift)) - 1u;
   return texelFetch(objectTexture, ivec2(int(index & mask), int(index >> uint(objectWidthShift))), 0);

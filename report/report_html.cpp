@@ -930,7 +930,17 @@ std::string renderCostSection(const Json& manifest) {
   html += "<table>\n";
   html += row("image size", count(numberAt(options, {"size"})) + " px, " + count(numberAt(options, {"views"})) + " views");
   html += row("mip-mapping / filtering", flag("mipmapping") + " / " + flag("filtering"));
+  // What the APO pass walked (docs/render.md): the APO texture, or the same
+  // octree as GPU Gems 2's N^3-tree (--layout n3tree).
+  const std::optional<std::string> layout = textAt(render, {"layout", "name"});
+  if (layout && *layout == "n3tree")
+    html += row("octree drawn as", "GPU Gems 2's N^3-tree, N = " + count(numberAt(render, {"layout", "n"})) + " (scan.n3t)");
   html += row("frame, reference M", fixed(numberAt(cost, {"reference_frame_ms"}), 2) + " ms");
+  // M as points goes through the point LOD: what it sent and drew.
+  const std::optional<double> sent = numberAt(cost, {"reference_primitives", "sent"});
+  if (sent)
+    html += row("reference primitives, sent / drawn per view", count(sent) + " / " +
+                                                                 count(numberAt(cost, {"reference_primitives", "drawn"})));
   html += row("frame, m alone", fixed(numberAt(cost, {"baseline_frame_ms"}), 2) + " ms");
   html += row("frame, m with APO", fixed(numberAt(cost, {"apo_frame_ms"}), 2) + " ms");
   html += row("texel reads per fragment, mean / max", fixed(numberAt(cost, {"apo_texel_fetches", "mean"}), 2) + " / " +
