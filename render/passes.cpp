@@ -486,11 +486,40 @@ Aabb sceneBox(const Scan* detail, const Scan& coarse) {
 
 }  // namespace
 
-std::vector<Camera> standardViews(const Aabb& box, int count) {
+Vec3f scannedSide(const Scan& coarse) {
+  Vec3f sum = Vec3f::Zero();
+  double area = 0.0;
+  for (const Triangle& t : coarse.triangles) {
+    const Vec3f& a = coarse.points.positions[t[0]];
+    const Vec3f cross = (coarse.points.positions[t[1]] - a).cross(coarse.points.positions[t[2]] - a);
+    sum += cross;  // twice the area, along the face normal
+    area += cross.norm();
+  }
+  if (!(area > 0.0) || sum.norm() < kOneSidedShare * static_cast<float>(area)) return Vec3f::Zero();
+  return sum.normalized();
+}
+
+namespace {
+
+// "+x", "-y", "+x-y+z": the signs of a direction's non-zero coordinates.
+std::string directionLabel(const Vec3f& direction) {
+  std::string label;
+  for (int axis = 0; axis < 3; ++axis)
+    if (direction[axis] != 0.0f) label += std::string(direction[axis] > 0.0f ? "+" : "-") + "xyz"[axis];
+  return label;
+}
+
+}  // namespace
+
+std::vector<Camera> standardViews(const Aabb& box, int count, const Vec3f& scannedSide) {
   std::vector<Vec3f> directions = {Vec3f::UnitX(), -Vec3f::UnitX(), Vec3f::UnitY(), -Vec3f::UnitY(), Vec3f::UnitZ(), -Vec3f::UnitZ()};
   for (const float x : {1.0f, -1.0f})
     for (const float y : {1.0f, -1.0f})
       for (const float z : {1.0f, -1.0f}) directions.push_back(Vec3f(x, y, z).normalized());
+  const bool oneSided = scannedSide.squaredNorm() > 0.0f;
+  if (oneSided)
+    std::stable_sort(directions.begin(), directions.end(),
+                     [&](const Vec3f& a, const Vec3f& b) { return a.dot(scannedSide) > b.dot(scannedSide); });
   const Vec3f centre = 0.5f * (box.min + box.max);
   const float radius = 0.5f * box.diagonal();
   std::vector<Camera> cameras;
@@ -503,6 +532,8 @@ std::vector<Camera> standardViews(const Aabb& box, int count) {
     c.up = std::abs(directions[i].y()) > 0.9f ? Vec3f::UnitZ() : Vec3f::UnitY();
     c.nearPlane = std::max(distance - 1.05f * radius, 1e-4f * distance);
     c.farPlane = distance + 1.05f * radius;
+    c.label = directionLabel(directions[i]);
+    if (oneSided) c.seesScannedSide = directions[i].dot(scannedSide) > 0.0f;
     cameras.push_back(c);
   }
   return cameras;
@@ -535,7 +566,7 @@ Result<std::vector<ViewImages>> renderViewsWith(const Scan* detail, const Scan& 
   }
 
   std::vector<ViewImages> views;
-  const std::vector<Camera> cameras = standardViews(sceneBox(detail, coarse), options.views);
+  const std::vector<Camera> cameras = standardViews(sceneBox(detail, coarse), options.views, scannedSide(coarse));
   for (const Camera& camera : cameras) {
     ViewImages view;
     view.camera = camera;

@@ -15,6 +15,7 @@
 #include <filesystem>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -147,12 +148,27 @@ struct Camera {
   Vec3f eye = Vec3f::Zero(), target = Vec3f::Zero(), up = Vec3f::UnitY();
   float fovYDegrees = 30.0f;
   float nearPlane = 0.1f, farPlane = 10.0f;
+  std::string label;  // where the eye is from the target: "+x", "-y", "+x-y+z", ...
+  // Of a one-sided scan: whether the view looks at the scanned side (its
+  // eye on the side m's normals face); none for a surface seen all round.
+  std::optional<bool> seesScannedSide;
 };
+
+// Above this share of m's area in its mean normal, m is one-sided (a scan of
+// a room, a table, a terrain); a closed surface's mean normal is zero.
+inline constexpr float kOneSidedShare = 0.25f;
+// The side a one-sided m was scanned from: the unit area-weighted mean of
+// its face normals when their sum is at least kOneSidedShare of its area,
+// else zero (seen all round).
+Vec3f scannedSide(const Scan& coarse);
 
 // The views, first `count` of: the 6 axis directions, then the 8 cube
 // diagonals; each looks at the centre of `box` from the distance at which its
-// bounding sphere fills the square image.
-std::vector<Camera> standardViews(const Aabb& box, int count);
+// bounding sphere fills the square image. Given a scanned side (non-zero),
+// the 14 directions are ordered by how squarely they look at it (stable:
+// ties keep the order above), so that the first views see the scanned side
+// (docs/render.md, "Views and passes").
+std::vector<Camera> standardViews(const Aabb& box, int count, const Vec3f& scannedSide = Vec3f::Zero());
 
 struct RenderOptions {
   int size = 1024;          // square images, pixels per side

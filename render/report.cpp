@@ -1,11 +1,11 @@
 // The figures of render.json and the normal buffers as files.
 #include "render/render.h"
-
 #include "core/file_io.h"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -150,6 +150,8 @@ std::string renderReportJson(const RenderFigures& figures, const RenderOptions& 
     if (i < cameras.size()) {
       const Camera& c = cameras[i];
       view["eye"] = {c.eye.x(), c.eye.y(), c.eye.z()};
+      view["label"] = c.label;
+      view["sees_scanned_side"] = c.seesScannedSide ? nlohmann::ordered_json(*c.seesScannedSide) : nlohmann::ordered_json();
       // The whole camera, so that other renderers can draw the same view.
       view["camera"] = {{"target", {c.target.x(), c.target.y(), c.target.z()}},
                         {"up", {c.up.x(), c.up.y(), c.up.z()}},
@@ -163,6 +165,9 @@ std::string renderReportJson(const RenderFigures& figures, const RenderOptions& 
     views.push_back(view);
   }
   json["views"] = views;
+  // Decided from m (scannedSide): a one-sided scan's views start on its scanned side.
+  const bool oneSided = std::any_of(cameras.begin(), cameras.end(), [](const Camera& c) { return c.seesScannedSide.has_value(); });
+  json["view_order"] = oneSided ? "scanned side first" : "fixed";
   return json.dump(2) + "\n";
 }
 

@@ -152,7 +152,7 @@ layout(location = 1) out vec4 normalAndCoverage;
 void main() {
   if (dot(discCoordinates, discCoordinates) > 1.0) discard;
   vec3 n = normalize(worldNormal);
-  shaded = shade(n, worldPosition);
+  shaded = shadeSide(n, worldPosition);
   normalAndCoverage = vec4(n, 1.0);
 }
 )";
@@ -167,6 +167,12 @@ vec4 shade(vec3 n, vec3 p) {
   vec3 colour = vec3(0.08) + 0.72 * diffuse * vec3(0.85, 0.82, 0.78) + 0.25 * specular * vec3(1.0);
   return vec4(clamp(colour, 0.0, 1.0), 1.0);
 }
+// A back face (seen from the side its normals turn away from: the unscanned
+// side of a one-sided scan) is lit through that side and tinted, so that it
+// reads as a back face rather than as black surface. Only the shaded image
+// changes; the normal buffers keep the surface's normal.
+const vec3 BACK_FACE_TINT = vec3(1.0, 0.62, 0.5);
+vec4 shadeSide(vec3 n, vec3 p) { return gl_FrontFacing ? shade(n, p) : vec4(shade(-n, p).rgb * BACK_FACE_TINT, 1.0); }
 )";
 
 // M (reference) or m (baseline) with their interpolated vertex normals.
@@ -177,7 +183,7 @@ layout(location = 0) out vec4 shaded;
 layout(location = 1) out vec4 normalAndCoverage;
 void main() {
   vec3 n = normalize(worldNormal);
-  shaded = shade(n, worldPosition);
+  shaded = shadeSide(n, worldPosition);
   normalAndCoverage = vec4(n, 1.0);
 }
 )";
@@ -416,7 +422,7 @@ void main() {
   vec3 n = !w.found ? coarseNormal : normalAt(w, coarseNormal);
   // A leaf showing m's normal shows it unblended (lookupTextureFiltered).
   if (w.found && filtering && n != coarseNormal) n = filteredNormal(P, w, distance, coarseNormal);
-  shaded = shade(n, worldPosition);
+  shaded = shadeSide(n, worldPosition);
 #ifdef COUNT_FETCHES
   normalAndCoverage = vec4(float(fetchCount), 0.0, 0.0, 1.0);
 #else

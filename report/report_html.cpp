@@ -596,7 +596,14 @@ std::string viewsSection(const Json& manifest) {
     const Json& view = (*views)[i];
     const std::string nn = fmt::format("{:02d}", means[i].index);
     const std::string prefix = folder + "/view" + nn + "_";
-    html += fmt::format("<div class=\"view\" id=\"view{}\">\n<h3>View {}</h3>\n<p class=\"viewstats\">", nn, nn);
+    // Its direction, and for a one-sided scan which side it sees (render.json).
+    const std::optional<std::string> label = textAt(&view, {"label"});
+    const Json* sees = child(&view, "sees_scanned_side");
+    std::string side;
+    if (sees != nullptr && sees->is_boolean())
+      side = sees->get<bool>() ? ", scanned side" : ", unscanned side: back faces tinted";
+    html += fmt::format("<div class=\"view\" id=\"view{}\">\n<h3>View {}{}</h3>\n<p class=\"viewstats\">", nn, nn,
+                        label ? " (" + htmlEscape(*label) + side + ")" : std::string());
     if (means[i].apoScan)
       html += "mean angular error against the scan's points seen: " + meansText(means[i].apoScan, means[i].baselineScan) +
               " &middot; against M: ";

@@ -421,3 +421,91 @@ TEST(BumpySphereAllOver, AtTheDefaultBakeTheFilteredApoHasAThirdOfMsOwnNormalsEr
 
 }  // namespace
 }  // namespace apo
+
+namespace apo {
+namespace {
+
+// A square in the plane y = 0 wound to face +y: a one-sided scan.
+Scan upwardSquare() {
+  Scan square;
+  square.points.positions = {{-1, 0, -1}, {-1, 0, 1}, {1, 0, 1}, {1, 0, -1}};
+  square.triangles = {{0, 1, 2}, {0, 2, 3}};
+  return square;
+}
+
+ApoTexture oneNodeApo() {
+  Octree octree;
+  octree.nodes.push_back({});
+  octree.nodes[0].normal = Vec3f::UnitY();
+  return encodeApo(octree, 0, NormalEncoding::Oct24, 0, 0).value();
+}
+
+TEST(StandardViews, AOneSidedScanIsSeenFromItsScannedSideFirst) {
+  const Scan square = upwardSquare();
+  EXPECT_TRUE(scannedSide(square).isApprox(Vec3f::UnitY()));
+  const std::vector<Camera> cameras = standardViews(boundingBox(square.points.positions), 14, scannedSide(square));
+  ASSERT_EQ(cameras.size(), 14u);
+  EXPECT_EQ(cameras[0].label, "+y");
+  // Then the four diagonals above it, the four sides, the diagonals below, and -y last.
+  for (int i = 1; i <= 4; ++i) EXPECT_NE(cameras[i].label.find("+y"), std::string::npos) << cameras[i].label;
+  EXPECT_EQ(cameras[13].label, "-y");
+  int seeing = 0;
+  for (const Camera& c : cameras) {
+    ASSERT_TRUE(c.seesScannedSide.has_value());
+    EXPECT_EQ(*c.seesScannedSide, (c.eye - c.target).y() > 0.0f) << c.label;
+    seeing += *c.seesScannedSide ? 1 : 0;
+  }
+  EXPECT_EQ(seeing, 5);
+  // A closed surface is seen all round: the fixed order, no side.
+  const Scan sphere = test::makeIcosphere(2);
+  EXPECT_EQ(scannedSide(sphere), Vec3f::Zero());
+  const std::vector<Camera> round = standardViews(boundingBox(sphere.points.positions), 14, scannedSide(sphere));
+  const std::vector<std::string> fixed = {"+x", "-x", "+y", "-y", "+z", "-z", "+x+y+z", "+x+y-z"};
+  for (std::size_t i = 0; i < fixed.size(); ++i) EXPECT_EQ(round[i].label, fixed[i]);
+  EXPECT_FALSE(round[0].seesScannedSide.has_value());
+}
+
+// Seen from below, the square's back face is tinted, not black; from above
+// it is grey. The normal buffers keep the surface's normal either way.
+TEST(BackFaces, AreTintedInTheShadedImageOnly) {
+  const Scan square = upwardSquare();
+  RenderOptions options;
+  options.size = 64;
+  options.timedFrames = 0;
+  auto views = renderViews(nullptr, square, oneNodeApo(), options);
+  ASSERT_TRUE(views.ok()) << views.error().message;
+  const auto meanColour = [](const PassImages& pass) {
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    double covered = 0;
+    for (std::size_t i = 0; i < pass.normals.data.size() / 4; ++i) {
+      if (!pass.normals.covered(i)) continue;
+      for (int c = 0; c < 3; ++c) sum[c] += pass.shaded.rgba[4 * i + c];
+      covered += 1;
+    }
+    return Eigen::Vector3d(sum / std::max(covered, 1.0));
+  };
+  const ViewImages& above = views->front();
+  const ViewImages& below = views->back();
+  ASSERT_EQ(above.camera.label, "+y");
+  ASSERT_EQ(below.camera.label, "-y");
+  for (const PassImages* pass : {&above.baseline, &above.apo}) {
+    const Eigen::Vector3d c = meanColour(*pass);
+    EXPECT_GT(c[0], 150.0);
+    EXPECT_LT(c[0] - c[2], 30.0) << "grey from the front";
+  }
+  for (const PassImages* pass : {&below.baseline, &below.apo}) {
+    const Eigen::Vector3d c = meanColour(*pass);
+    EXPECT_GT(c[0], 150.0) << "lit, not black";
+    EXPECT_GT(c[0] - c[2], 50.0) << "tinted";
+    std::size_t covered = 0;
+    for (std::size_t i = 0; i < pass->normals.data.size() / 4; ++i)
+      if (pass->normals.covered(i)) {
+        ++covered;
+        ASSERT_GT(pass->normals.normal(i).y(), 0.99f);
+      }
+    EXPECT_GT(covered, 500u);
+  }
+}
+
+}  // namespace
+}  // namespace apo
