@@ -237,8 +237,10 @@ Result<Layout> n3TreeLayout(const gl::Context& context, const N3Tree& tree) {
   return layout;
 }
 
+constexpr std::string_view kDesktopVersion = "#version 450 core\n";
+
 std::string fragmentSource(std::string_view body, Walk walk, const Layout& layout) {
-  std::string source = "#version 450 core\n";
+  std::string source(kDesktopVersion);
   if (walk == Walk::CountingFetches) source += "#define COUNT_FETCHES\n";
   source += shaders::kShading;
   if (walk != Walk::None) {
@@ -261,7 +263,8 @@ Result<Programs> buildPrograms(const gl::Api& api, const Layout& layout) {
   Programs programs;
   const auto build = [&](gl::Program& program, std::string_view body, Walk walk,
                          std::string_view vertex = shaders::kMeshVertex, std::string_view geometry = {}) -> Status {
-    auto built = gl::buildProgram(api, vertex, fragmentSource(body, walk, layout), geometry);
+    auto built = gl::buildProgram(api, std::string(kDesktopVersion) + std::string(vertex), fragmentSource(body, walk, layout),
+                                  geometry.empty() ? std::string() : std::string(kDesktopVersion) + std::string(geometry));
     if (!built) return built.error();
     program = std::move(built).value();
     return okStatus();
@@ -654,6 +657,15 @@ std::uint32_t expectedFetches(const Lookup& lookup, int completeDepth) {
 }
 
 }  // namespace
+
+ShaderSources webglApoShaders() {
+  const std::string prelude = "#version 300 es\nprecision highp float;\nprecision highp int;\nprecision highp usampler2D;\n";
+  ShaderSources sources;
+  sources.vertex = prelude + std::string(shaders::kMeshVertex);
+  sources.fragment = prelude + std::string(shaders::kShading) + glslLayoutDefinitions() + std::string(shaders::kWalkCommon) +
+                     std::string(shaders::kApoWalk) + std::string(shaders::kFilter) + std::string(shaders::kApoFragment);
+  return sources;
+}
 
 Result<std::vector<ViewImages>> renderViews(const Scan* detail, const Scan& coarse, const ApoTexture& apo,
                                             const RenderOptions& options, const std::function<void(int, int)>& onViewDone) {

@@ -237,6 +237,16 @@ Result<std::vector<ViewImages>> renderViews(const Scan* detail, const Scan& coar
                                             const RenderOptions& options,
                                             const std::function<void(int, int)>& onViewDone = {});
 
+// The APO pass (m with the APO's walk, paper 5.1-5.3) as GLSL ES 3.00 for
+// WebGL2: the same text as the OSMesa shaders, with "#version 300 es" and
+// precisions before it; the same uniforms, attributes (0: position, 1:
+// normal) and outputs (0: shaded, 1: normal and coverage). For the report's
+// interactive viewer (issue 17); checked to compile and link in Chromium.
+struct ShaderSources {
+  std::string vertex, fragment;
+};
+ShaderSources webglApoShaders();
+
 // ---- Figures of the rendered views (render.json) ---------------------------
 
 struct PassFigures {

@@ -1,4 +1,7 @@
-// GLSL sources of the passes (internal to render/). One vertex shader for
+// GLSL sources of the passes (internal to render/), without their #version
+// line: passes.cpp puts "#version 450 core" before them for OSMesa, and
+// webglApoShaders() "#version 300 es" and precisions for WebGL2, so that the
+// APO walk is one text for both (it avoids what GLSL ES 3.00 lacks). One vertex shader for
 // every mesh; fragment shaders for M or m with their own normals, and for m
 // with the APO, whose walk repeats format/'s lookupTexture operation for
 // operation so that both land on the same node (see the exactness pass).
@@ -10,7 +13,7 @@
 
 namespace apo::shaders {
 
-inline constexpr std::string_view kMeshVertex = R"(#version 450 core
+inline constexpr std::string_view kMeshVertex = R"(
 layout(location = 0) in vec3 position;
 layout(location = 1) in vec3 normal;
 uniform mat4 viewProjection;
@@ -27,7 +30,7 @@ void main() {
 // flat-shaded with the point's normal. The geometry stage turns each point
 // into a square in its tangent plane (kEmitSurfel); the fragment stage cuts
 // the disc out.
-inline constexpr std::string_view kSplatVertex = R"(#version 450 core
+inline constexpr std::string_view kSplatVertex = R"(
 layout(location = 0) in vec3 position;
 layout(location = 1) in vec3 normal;
 layout(location = 2) in float radius;
@@ -60,7 +63,7 @@ void emitSurfel(vec3 centre, vec3 n, float r) {
 )";
 
 // Every point as its surfel.
-inline constexpr std::string_view kSplatGeometry = R"(#version 450 core
+inline constexpr std::string_view kSplatGeometry = R"(
 layout(points) in;
 layout(triangle_strip, max_vertices = 4) out;
 in vec3 splatNormal[];
@@ -80,7 +83,7 @@ void main() { emitSurfel(gl_in[0].gl_Position.xyz, splatNormal[0], splatRadius[0
 // errors, picks the coarsest level within the threshold (render.h
 // chooseLodLevel) and emits that level's surfels, read from the texture, as
 // kSplatGeometry does. kSplatFragment cuts the discs.
-inline constexpr std::string_view kLodVertex = R"(#version 450 core
+inline constexpr std::string_view kLodVertex = R"(
 layout(location = 0) in vec3 position;
 layout(location = 1) in vec3 normal;
 layout(location = 2) in float radius;
@@ -99,7 +102,7 @@ void main() {
 }
 )";
 
-inline constexpr std::string_view kLodGeometry = R"(#version 450 core
+inline constexpr std::string_view kLodGeometry = R"(
 layout(points) in;
 layout(triangle_strip, max_vertices = 256) out;
 in vec3 patchNormal[];
@@ -240,6 +243,13 @@ uvec4 texel(uint index) {
   return texelFetch(apoTexture, ivec2(int(index & widthMask), int(index >> widthShift)), 0);
 }
 
+// The set bits of a mask of 8 (bitCount is not in GLSL ES 3.00).
+uint countBits8(uint m) {
+  m = m - ((m >> 1) & 0x55u);
+  m = (m & 0x33u) + ((m >> 2) & 0x33u);
+  return (m + (m >> 4)) & 0x0Fu;
+}
+
 struct Walk {
   bool found;
   uint node;         // first texel of the node the walk stopped at
@@ -276,7 +286,7 @@ Walk walk(vec3 P, int maxDepth, float distance) {
     uint kindMask = texel(node + 1u).a;
     twoTexels = (kindMask & (1u << child)) != 0u;
     uint before = childMask & ((1u << child) - 1u);
-    node += (first.r | (first.g << 8) | (first.b << 16)) + uint(bitCount(before)) + uint(bitCount(before & kindMask));
+    node += (first.r | (first.g << 8) | (first.b << 16)) + countBits8(before) + countBits8(before & kindMask);
     float quarter = width * 0.25;
     centre += vec3((child & 4u) != 0u ? -quarter : quarter, (child & 2u) != 0u ? -quarter : quarter,
                    (child & 1u) != 0u ? -quarter : quarter);
