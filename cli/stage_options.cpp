@@ -176,8 +176,8 @@ void addRenderOptions(CLI::App& app, RenderArguments& arguments) {
   app.add_flag("--no-point-lod", arguments.noPointLod,
                "M as points: draw every point's disc instead of the point LOD (Maximo et al.)");
   app.add_option("--lod-threshold", o.lodThreshold,
-                 "M as points: the point LOD draws each patch at the coarsest level whose perpendicular error "
-                 "projects to at most this many pixels")
+                 "M as points: the point LOD draws each patch at the coarsest level whose error (the perpendicular "
+                 "error, or radius x normal spread where larger) projects to at most this many pixels")
       ->capture_default_str();
 }
 

@@ -85,9 +85,6 @@ constexpr std::uint32_t kNewestFormatVersion = kFormatVersionTwoSided;
 bool hasOrigin(std::uint32_t version) { return version >= kFormatVersionWithOrigin; }
 
 std::uint32_t headerBytesOf(std::uint32_t version) { return hasOrigin(version) ? kHeaderBytesV2 : kHeaderBytes; }
-// Stored little-endian as 04 03 02 01; any other order means a writer that
-// ignored the byte order.
-constexpr std::uint32_t kByteOrderMark = 0x01020304;
 
 // The header's fields as stored.
 struct Header {
@@ -210,9 +207,7 @@ Status checkIdentity(const Header& header) {
   if (header.version < kFormatVersion || header.version > kNewestFormatVersion)
     return fieldError(kVersion, "expected {} to {} (the versions this reader knows), found {}", kFormatVersion,
                       kNewestFormatVersion, header.version);
-  if (header.byteOrderMark != kByteOrderMark)
-    return fieldError(kByteOrder, "expected {:#010x} stored as 04 03 02 01, found {:#010x}", kByteOrderMark,
-                      header.byteOrderMark);
+  APO_RETURN_IF_ERROR(checkByteOrder(kByteOrder, header.byteOrderMark));
   if (header.headerSize != headerBytesOf(header.version))
     return fieldError(kHeaderSize, "expected {} for format version {}, found {}", headerBytesOf(header.version),
                       header.version, header.headerSize);

@@ -33,10 +33,20 @@ Error fieldError(const Field& field, fmt::format_string<Args...> format, Args&&.
   return badInput("byte {} ({}): {}", field.offset, field.name, fmt::format(format, std::forward<Args>(args)...));
 }
 
+// Every binary file's byte-order mark: stored little-endian as 04 03 02 01;
+// any other order means a writer that ignored the byte order.
+inline constexpr std::uint32_t kByteOrderMark = 0x01020304;
+
 inline std::string hexBytes(const std::uint8_t* bytes, std::size_t count, std::string_view separator) {
   std::string hex;
   for (std::size_t i = 0; i < count; ++i) hex += fmt::format("{}{:02x}", i ? separator : "", bytes[i]);
   return hex;
+}
+
+inline Status checkByteOrder(const Field& field, std::uint32_t found) {
+  if (found != kByteOrderMark)
+    return fieldError(field, "expected {:#010x} stored as 04 03 02 01, found {:#010x}", kByteOrderMark, found);
+  return okStatus();
 }
 
 class HeaderWriter {

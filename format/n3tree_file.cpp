@@ -41,7 +41,6 @@ static_assert(kChecksum.offset + kChecksum.size == kHeaderBytes);
 
 constexpr std::array<std::uint8_t, 8> kMagicBytes = {0x89, 'N', '3', 'T', '\r', '\n', 0x1A, '\n'};
 constexpr std::uint32_t kFormatVersion = 1;
-constexpr std::uint32_t kByteOrderMark = 0x01020304;
 constexpr std::uint8_t kDefersToCoarse = 1, kCoarseAtInternalNodes = 2;
 
 struct Header {
@@ -129,8 +128,7 @@ Result<Header> parseHeader(std::string_view bytes, std::uint64_t fileSize) {
 Status checkHeader(const Header& h, std::uint64_t fileSize) {
   if (h.version != kFormatVersion)
     return fieldError(kVersion, "expected {} (the version this reader knows), found {}", kFormatVersion, h.version);
-  if (h.byteOrderMark != kByteOrderMark)
-    return fieldError(kByteOrder, "expected {:#010x} stored as 04 03 02 01, found {:#010x}", kByteOrderMark, h.byteOrderMark);
+  APO_RETURN_IF_ERROR(checkByteOrder(kByteOrder, h.byteOrderMark));
   if (h.headerSize != kHeaderBytes) return fieldError(kHeaderSize, "expected {}, found {}", kHeaderBytes, h.headerSize);
   if (!std::isfinite(h.scale) || !(h.scale > 0)) return fieldError(kScale, "expected a finite positive number, found {}", h.scale);
   for (int axis = 0; axis < 3; ++axis) {

@@ -11,14 +11,12 @@ must not be skipped)."""
 import os
 import pathlib
 import signal
-import subprocess
 import sys
 import tempfile
 import time
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent.parent / "report"))
-from browser_check import (CHROMEDRIVER, CHROMIUM, CheckFailed, Timeout, WebDriver, free_port,  # noqa: E402
-                           stop)
+from browser_check import CHROMEDRIVER, CHROMIUM, CheckFailed, Timeout, start_driver, stop  # noqa: E402
 
 TIMEOUT_SECONDS = 60
 
@@ -27,11 +25,7 @@ def title_of(page, workdir, deadline):
     for path, package in ((CHROMIUM, "chromium"), (CHROMEDRIVER, "chromium-driver")):
         if not os.access(path, os.X_OK):
             raise CheckFailed(f"{path} not found: install the Debian package {package} (setup.sh does)")
-    port = free_port()
-    with open(workdir / "chromedriver.log", "wb") as log:
-        process = subprocess.Popen([CHROMEDRIVER, f"--port={port}"], stdout=log, stderr=subprocess.STDOUT,
-                                   stdin=subprocess.DEVNULL, start_new_session=True)
-    driver = WebDriver(port)
+    driver, process = start_driver(workdir)
     try:
         driver.wait_ready(process, min(deadline, time.monotonic() + 20))
         driver.new_session(workdir / "profile")

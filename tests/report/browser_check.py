@@ -147,6 +147,16 @@ class WebDriverError(Exception):
         super().__init__(f"HTTP {status} {error}: {message.splitlines()[0] if message else ''}")
 
 
+def start_driver(workdir):
+    """chromedriver on a free port, logging to WORKDIR/chromedriver.log, in its own process group (so that
+    the browser it starts is stopped with it by stop()); not yet ready."""
+    port = free_port()
+    with open(workdir / "chromedriver.log", "wb") as log:
+        process = subprocess.Popen([CHROMEDRIVER, f"--port={port}"], stdout=log, stderr=subprocess.STDOUT,
+                                   stdin=subprocess.DEVNULL, start_new_session=True)
+    return WebDriver(port), process
+
+
 def check(report, screenshot, workdir, deadline):
     for path, package in ((CHROMIUM, "chromium"), (CHROMEDRIVER, "chromium-driver")):
         if not os.access(path, os.X_OK):
@@ -154,13 +164,8 @@ def check(report, screenshot, workdir, deadline):
     if not report.is_file():
         raise CheckFailed(f"{report}: no such file")
 
-    port = free_port()
     log_path = workdir / "chromedriver.log"
-    with open(log_path, "wb") as log:
-        # Its own process group, so that the browser it starts is stopped with it.
-        driver_process = subprocess.Popen([CHROMEDRIVER, f"--port={port}"], stdout=log, stderr=subprocess.STDOUT,
-                                          stdin=subprocess.DEVNULL, start_new_session=True)
-    driver = WebDriver(port)
+    driver, driver_process = start_driver(workdir)
     try:
         driver.wait_ready(driver_process, min(deadline, time.monotonic() + 20))
         driver.new_session(workdir / "profile")
