@@ -217,6 +217,11 @@ void addStageOptionGroups(CLI::App& app, StageArguments& arguments) {
     app.add_flag("--no-export", arguments.noExport, "No asset.glb (the export stage is skipped)");
     addExportOptions(app, arguments.exporting);
   });
+  addGroup(app, "Report", [&] {
+    app.add_flag("--no-viewer", arguments.noViewer,
+                 "No viewer.html: the report without its interactive WebGL2 view (which carries the APO texture and "
+                 "M, a few MB)");
+  });
   app.add_option("--config", arguments.configFile,
                  "TOML file holding any of these options by name, without dashes (`faces = 5000`); the command line wins");
 }
@@ -237,6 +242,7 @@ RunOptions runOptionsFrom(StageArguments arguments) {
   options.render = arguments.render.options;
   options.exporting = arguments.exporting;
   options.exporting.enabled = !arguments.noExport;
+  options.viewer = !arguments.noViewer;
   return options;
 }
 

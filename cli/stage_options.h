@@ -73,6 +73,7 @@ struct StageArguments {
   RenderArguments render = reportRenderArguments();
   ExportOptions exporting;
   bool noExport = false;
+  bool noViewer = false;
   std::filesystem::path configFile;  // --config
 
   // The QA report's renders (pipeline.h reportRenderOptions), filtered unless

@@ -86,7 +86,8 @@ nlohmann::ordered_json optionsJson(const RunOptions& options) {
           {"simplify", simplifyJson(options.simplify)},
           {"bake", bakeJson(options.bake)},
           {"render", renderJson(options.render)},
-          {"export", exportJson(options.exporting)}};
+          {"export", exportJson(options.exporting)},
+          {"report", {{"no-viewer", !options.viewer}}}};
 }
 
 }  // namespace apo

@@ -68,6 +68,8 @@ struct RunOptions {
   BakeOptions bake;
   RenderOptions render = reportRenderOptions();
   ExportOptions exporting;
+  // The report's interactive view, viewer.html (--no-viewer: none).
+  bool viewer = true;
 };
 
 // Every stage's options checked, so that a bad value fails before any stage
@@ -89,6 +91,21 @@ struct RunOutcome {
   Status status;
   nlohmann::ordered_json manifest;  // as written to OUTDIR/manifest.json
 };
+
+// ---- The report's interactive view -------------------------------------------
+
+// M travels whole into viewer.html up to these sizes; beyond, a mesh is
+// simplified to kViewerMostTriangles and points are drawn from the coarsest
+// point-LOD level within kViewerMostPoints (docs/report.md, "The viewer"):
+// about 4 and 3 MB of base64 at most.
+inline constexpr std::size_t kViewerMostTriangles = 100000;
+inline constexpr std::size_t kViewerMostPoints = 120000;
+
+// What viewer.html draws: m with the APO, m alone and M (`detail`, may be
+// null) as render/ gives them to WebGL2, seen from `views` (the renders'),
+// with the render options' mip-mapping and filtering.
+Result<ViewerScene> viewerScene(const Scan& coarse, const ApoTexture& apo, const Scan* detail,
+                                const std::vector<Camera>& views, const RenderOptions& options);
 
 // The stages in order, recording each in OUTDIR/manifest.json as it ends (a
 // killed run leaves one that says "running" and where it stopped); outputs

@@ -33,6 +33,7 @@ struct PipelineData {
   std::optional<N3Tree> n3tree;      // --layout n3tree: what the renders draw
   const Scan* reference = nullptr;   // M as the renders draw it: dense, or the scan's points
   std::optional<ScanProbes> probes;  // point scans: the probes on m judging the asset against the scan
+  std::vector<Camera> cameras;       // the renders' views, in their order
 };
 
 class Run {
@@ -254,7 +255,7 @@ class Run {
       figures.n3Size = data_.n3tree->n;
     }
     APO_RETURN_IF_ERROR(writeRenderOutputs(settings_.outDir / kRenderFolder, *views, figures, settings_.options.render));
-    std::vector<Camera> cameras;
+    std::vector<Camera>& cameras = data_.cameras;
     for (const ViewImages& view : *views) cameras.push_back(view.camera);
     manifest_["results"]["render"] = Json::parse(renderReportJson(figures, settings_.options.render, cameras));
     // A point scan's M is a reconstruction: the asset is judged against the
@@ -299,12 +300,31 @@ class Run {
   }
 
   Status report() {
+    if (settings_.options.viewer) APO_RETURN_IF_ERROR(viewer());
     addFile("report", "report.html");
     // The report shows the run as it will be recorded: every stage done.
     Json finished = manifest_;
     finished["status"] = "succeeded";
     finished["stages"][kReport]["status"] = "succeeded";
     return writeFileAtomically(settings_.outDir / "report.html", qaReportHtml(nlohmann::json::parse(finished.dump())));
+  }
+
+  // OUTDIR/viewer.html, the interactive view the report embeds (docs/report.md,
+  // "The viewer"); its size and what it shows as M go in results.viewer.
+  Status viewer() {
+    const Stopwatch making;
+    auto scene = viewerScene(data_.coarse, data_.texture, data_.reference, data_.cameras, settings_.options.render);
+    if (!scene) return aboutInput(settings_.input, scene.error());
+    std::vector<std::string> images;
+    for (std::size_t i = 0; i < data_.cameras.size(); ++i) images.push_back(fmt::format("{}/view{:02d}_apo.png", kRenderFolder, i));
+    const std::string page = viewerHtml(*scene, settings_.input.filename().string(), images);
+    APO_RETURN_IF_ERROR(writeFileAtomically(settings_.outDir / "viewer.html", page));
+    addFile("viewer", "viewer.html");
+    manifest_["results"]["viewer"] = {{"bytes", page.size()},
+                                      {"texture_bytes", scene->texture.size()},
+                                      {"detail", scene->detail.description},
+                                      {"seconds", making.seconds()}};
+    return okStatus();
   }
 
   const RunSettings& settings_;

@@ -7,6 +7,9 @@
 #include "render/render.h"
 
 #include "core/image_io.h"
+#include "render/shaders.h"
+
+#include <fmt/format.h>
 
 #include <algorithm>
 #include <array>
@@ -146,6 +149,13 @@ double psnrOf(double meanSquaredError) {
 }
 
 }  // namespace
+
+std::string shaders::glslViridis() {
+  std::string table = fmt::format("const vec3 VIRIDIS[{}] = vec3[{}](", kViridis.size(), kViridis.size());
+  for (std::size_t i = 0; i < kViridis.size(); ++i)
+    table += fmt::format("{}vec3({:.4f}, {:.4f}, {:.4f})", i ? ", " : "", kViridis[i][0], kViridis[i][1], kViridis[i][2]);
+  return table + ");\n";
+}
 
 // atan2(|a x b|, a . b) rather than acos of the normalised dot product: it is
 // scale-invariant (no normalisation), lies in [0, 180] with no clamp that

@@ -658,15 +658,6 @@ std::uint32_t expectedFetches(const Lookup& lookup, int completeDepth) {
 
 }  // namespace
 
-ShaderSources webglApoShaders() {
-  const std::string prelude = "#version 300 es\nprecision highp float;\nprecision highp int;\nprecision highp usampler2D;\n";
-  ShaderSources sources;
-  sources.vertex = prelude + std::string(shaders::kMeshVertex);
-  sources.fragment = prelude + std::string(shaders::kShading) + glslLayoutDefinitions() + std::string(shaders::kWalkCommon) +
-                     std::string(shaders::kApoWalk) + std::string(shaders::kFilter) + std::string(shaders::kApoFragment);
-  return sources;
-}
-
 Result<std::vector<ViewImages>> renderViews(const Scan* detail, const Scan& coarse, const ApoTexture& apo,
                                             const RenderOptions& options, const std::function<void(int, int)>& onViewDone) {
   return renderViewsWith(detail, coarse, [&](const gl::Context& context) { return apoLayout(context, apo); }, options, onViewDone);

@@ -8,6 +8,7 @@
 #include "core/error.h"
 #include "core/geometry.h"
 #include "core/ray_caster.h"
+#include "core/viewer_scene.h"
 
 #include <algorithm>
 #include <array>
@@ -144,16 +145,6 @@ int chooseLodLevel(const Surfel& patch, const LodPatch& finer, const Vec3f& eye,
 
 // ---- Cameras and passes (OSMesa) --------------------------------------------
 
-struct Camera {
-  Vec3f eye = Vec3f::Zero(), target = Vec3f::Zero(), up = Vec3f::UnitY();
-  float fovYDegrees = 30.0f;
-  float nearPlane = 0.1f, farPlane = 10.0f;
-  std::string label;  // where the eye is from the target: "+x", "-y", "+x-y+z", ...
-  // Of a one-sided scan: whether the view looks at the scanned side (its
-  // eye on the side m's normals face); none for a surface seen all round.
-  std::optional<bool> seesScannedSide;
-};
-
 // Above this share of m's area in its mean normal, m is one-sided (a scan of
 // a room, a table, a terrain); a closed surface's mean normal is zero.
 inline constexpr float kOneSidedShare = 0.25f;
@@ -237,15 +228,24 @@ Result<std::vector<ViewImages>> renderViews(const Scan* detail, const Scan& coar
                                             const RenderOptions& options,
                                             const std::function<void(int, int)>& onViewDone = {});
 
-// The APO pass (m with the APO's walk, paper 5.1-5.3) as GLSL ES 3.00 for
-// WebGL2: the same text as the OSMesa shaders, with "#version 300 es" and
-// precisions before it; the same uniforms, attributes (0: position, 1:
-// normal) and outputs (0: shaded, 1: normal and coverage). For the report's
-// interactive viewer (issue 17); checked to compile and link in Chromium.
-struct ShaderSources {
-  std::string vertex, fragment;
-};
-ShaderSources webglApoShaders();
+// ---- The report's viewer (WebGL2) -------------------------------------------
+
+// The passes as GLSL ES 3.00 for WebGL2: the OSMesa shaders' own texts
+// (the APO walk above all, paper 5.1-5.3) with "#version 300 es" and
+// precisions before them; the same uniforms, attributes (0: position, 1:
+// normal, 2: radius) and outputs (0: shaded, 1: normal and coverage); plus
+// the points as sprites and the heat map, which the viewer alone draws.
+ViewerShaders webglShaders();
+// The APO's uniforms for the WebGL2 APO pass (those the OSMesa pass sets
+// from the texture, besides the camera's), set in `scene` with the texture.
+void setWebglApo(const ApoTexture& apo, ViewerScene& scene);
+// A mesh as the passes draw it: positions, vertex normals as drawn
+// (vertexNormalsAsDrawn), indices.
+ViewerGeometry webglMesh(const Scan& mesh);
+// Points as the viewer draws them: the finest level of the point LOD
+// (buildPointLod) of at most `maxPoints` samples, each with its disc's
+// radius; the description says which level. BadInput without normals.
+Result<ViewerGeometry> webglPoints(const PointSet& points, std::size_t maxPoints);
 
 // ---- Figures of the rendered views (render.json) ---------------------------
 

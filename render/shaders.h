@@ -1,6 +1,6 @@
 // GLSL sources of the passes (internal to render/), without their #version
 // line: passes.cpp puts "#version 450 core" before them for OSMesa, and
-// webglApoShaders() "#version 300 es" and precisions for WebGL2, so that the
+// webglShaders() "#version 300 es" and precisions for WebGL2, so that the
 // APO walk is one text for both (it avoids what GLSL ES 3.00 lacks). One vertex shader for
 // every mesh; fragment shaders for M or m with their own normals, and for m
 // with the APO, whose walk repeats format/'s lookupTexture operation for
@@ -9,6 +9,7 @@
 // (format/format.h), which passes.cpp puts before it.
 #pragma once
 
+#include <string>
 #include <string_view>
 
 namespace apo::shaders {
@@ -160,13 +161,22 @@ void main() {
 }
 )";
 
-// Blinn-Phong under a headlight (the light sits at the eye), grey albedo.
+// Blinn-Phong, grey albedo, under a headlight (the light sits at the eye)
+// unless `light` is set: the unit direction towards a distant light, which
+// the report's viewer moves (the OSMesa passes leave it zero).
 inline constexpr std::string_view kShading = R"(
 uniform vec3 eye;
+uniform vec3 light;
 vec4 shade(vec3 n, vec3 p) {
   vec3 toEye = normalize(eye - p);
-  float diffuse = max(dot(n, toEye), 0.0);
-  float specular = pow(diffuse, 32.0);  // the half vector of a headlight is the view direction
+  float diffuse, specular;
+  if (light == vec3(0.0)) {
+    diffuse = max(dot(n, toEye), 0.0);
+    specular = pow(diffuse, 32.0);  // the half vector of a headlight is the view direction
+  } else {
+    diffuse = max(dot(n, light), 0.0);
+    specular = diffuse > 0.0 ? pow(max(dot(n, normalize(light + toEye)), 0.0), 32.0) : 0.0;
+  }
   vec3 colour = vec3(0.08) + 0.72 * diffuse * vec3(0.85, 0.82, 0.78) + 0.25 * specular * vec3(1.0);
   return vec4(clamp(colour, 0.0, 1.0), 1.0);
 }
@@ -456,5 +466,78 @@ void main() {
   unitPointAndCoverage = vec4(P, 1.0);
 }
 )";
+
+// ---- The report's viewer only (WebGL2, no geometry stage) ------------------
+
+// M as points in WebGL2: each point a round sprite of its disc's projected
+// diameter, facing the eye, flat-shaded with the point's normal (the OSMesa
+// passes' discs lie in the tangent plane; WebGL2 has no geometry stage).
+inline constexpr std::string_view kPointSpriteVertex = R"(
+layout(location = 0) in vec3 position;
+layout(location = 1) in vec3 normal;
+layout(location = 2) in float radius;
+uniform mat4 viewProjection;
+uniform float pixelsPerWorldUnitAtOne;
+out vec3 worldPosition;
+out vec3 worldNormal;
+void main() {
+  worldPosition = position;
+  worldNormal = normal;
+  gl_Position = viewProjection * vec4(position, 1.0);
+  gl_PointSize = clamp(2.0 * radius * pixelsPerWorldUnitAtOne / max(gl_Position.w, 1e-6), 1.0, 1023.0);
+}
+)";
+// A sprite has no facing: the side is the normal's against the eye.
+inline constexpr std::string_view kPointSpriteFragment = R"(
+in vec3 worldPosition;
+in vec3 worldNormal;
+layout(location = 0) out vec4 shaded;
+layout(location = 1) out vec4 normalAndCoverage;
+void main() {
+  vec2 d = 2.0 * gl_PointCoord - 1.0;
+  if (dot(d, d) > 1.0) discard;
+  vec3 n = normalize(worldNormal);
+  bool front = dot(n, eye - worldPosition) >= 0.0;
+  shaded = front ? shade(n, worldPosition) : vec4(shade(-n, worldPosition).rgb * BACK_FACE_TINT, 1.0);
+  normalAndCoverage = vec4(n, 1.0);
+}
+)";
+
+// One triangle covering the viewport.
+inline constexpr std::string_view kScreenVertex = R"(
+void main() {
+  vec2 corner = vec2(float((gl_VertexID << 1) & 2), float(gl_VertexID & 2));
+  gl_Position = vec4(2.0 * corner - 1.0, 0.0, 1.0);
+}
+)";
+// The heat map of the current view: the angle between two normal buffers
+// (as render/metrics.cpp's angleDegrees, by atan2), coloured by the same
+// viridis scale as the report's images (glslViridis); grey where only one
+// buffer covers the pixel, white (the background) where neither does.
+inline constexpr std::string_view kHeatFragment = R"(
+uniform highp sampler2D apoNormals;
+uniform highp sampler2D referenceNormals;
+uniform float heatMapDegrees;
+out vec4 colour;
+vec3 viridis(float t) {
+  float scaled = clamp(t, 0.0, 1.0) * float(VIRIDIS.length() - 1);
+  int i = min(int(scaled), VIRIDIS.length() - 2);
+  return mix(VIRIDIS[i], VIRIDIS[i + 1], scaled - float(i));
+}
+void main() {
+  ivec2 pixel = ivec2(gl_FragCoord.xy);
+  vec4 a = texelFetch(apoNormals, pixel, 0);
+  vec4 r = texelFetch(referenceNormals, pixel, 0);
+  if (a.w < 0.5 || r.w < 0.5) {
+    colour = vec4(a.w >= 0.5 || r.w >= 0.5 ? vec3(0.75) : vec3(1.0), 1.0);
+    return;
+  }
+  float degrees = degrees(atan(length(cross(a.xyz, r.xyz)), dot(a.xyz, r.xyz)));
+  colour = vec4(viridis(degrees / heatMapDegrees), 1.0);
+}
+)";
+
+// "const vec3 VIRIDIS[33] = ...;": the heat maps' colour table (metrics.cpp).
+std::string glslViridis();
 
 }  // namespace apo::shaders

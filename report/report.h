@@ -11,6 +11,8 @@
 // is shown as "not run" or "-".
 #pragma once
 
+#include "core/viewer_scene.h"
+
 #include <nlohmann/json.hpp>
 
 #include <string>
@@ -58,5 +60,13 @@ struct BatchRow {
 // triangles, APO texture bytes, mean angular error of the APO and of the
 // baseline, total seconds.
 std::string batchIndexHtml(const std::vector<BatchRow>& rows, const nlohmann::json& summary);
+
+// OUTDIR/viewer.html of one scan: the interactive WebGL2 view (docs/report.md,
+// "The viewer"), self-contained: script, shaders and data inline (base64),
+// so it works from file:// and on a machine without the tool. `staticImages`
+// (paths relative to the page, one per view) are what a browser without
+// WebGL2 shows instead, saying why. Scan names and labels reach the page as
+// JSON text only, never as markup.
+std::string viewerHtml(const ViewerScene& scene, std::string_view scanName, const std::vector<std::string>& staticImages);
 
 }  // namespace apo

@@ -215,7 +215,7 @@ std::string missingStage(const Json& manifest, const char* stage) {
 
 // No script may run and nothing may be fetched but images next to the page.
 constexpr const char* kContentSecurityPolicy =
-    "default-src 'none'; img-src 'self' file: data:; style-src 'unsafe-inline'";
+    "default-src 'none'; img-src 'self' file: data:; style-src 'unsafe-inline'; frame-src 'self' file:";
 
 constexpr const char* kStyle = R"(
 :root { color-scheme: light; --ok: #1b7f3b; --bad: #b3261e; --warn: #8a5a00; --apo: #3b528b; --base: #e07b39; }
@@ -241,6 +241,7 @@ thead th { background: #eeeeea; }
 .view { background: #fff; border: 1px solid #ddd; border-radius: 6px; padding: 10px 12px; margin: 12px 0; }
 .viewstats { margin: 0 0 8px; font-size: 14px; color: #333; }
 .quad { display: grid; grid-template-columns: repeat(4, 1fr); gap: 10px; }
+iframe.viewer { width: 100%; height: 860px; border: 1px solid #d0d0cc; background: #fff; }
 figure { margin: 0; }
 figure img, .noimg { width: 100%; height: auto; display: block; background: #fff; border: 1px solid #e2e2e2; }
 .noimg { aspect-ratio: 1; display: flex; align-items: center; justify-content: center; color: #888; font-style: italic; }
@@ -571,6 +572,22 @@ std::string imageCell(const std::string& src, const std::string& alt, const std:
 
 std::string missingImageCell(const std::string& caption, const std::string& why) {
   return "<figure><div class=\"noimg\">" + why + "</div><figcaption>" + caption + "</figcaption></figure>\n";
+}
+
+// The interactive view (viewer.html, its own page with its own script) in a
+// frame: this page stays script-free.
+std::string interactiveSection(const Json& manifest) {
+  const std::optional<std::string> viewer = textAt(&manifest, {"files", "viewer"});
+  if (!viewer) return {};
+  const std::string src = htmlEscape(urlPathEscape(*viewer));
+  std::string html = "<section id=\"interactive\">\n<h2>Interactive view</h2>\n";
+  html += fmt::format("<p>m with the APO walked per pixel in WebGL2, beside m alone, {} and the heat map; turn, zoom, move "
+                      "the light (<a href=\"{}\">open it alone</a>, {}). Without WebGL2 it shows the static views below "
+                      "and says why.</p>\n",
+                      escaped(textAt(&manifest, {"results", "viewer", "detail"})), src,
+                      bytesText(numberAt(&manifest, {"results", "viewer", "bytes"})));
+  html += "<iframe class=\"viewer\" src=\"" + src + "\" title=\"interactive view\"></iframe>\n";
+  return html + "</section>\n";
 }
 
 std::string viewsSection(const Json& manifest) {
@@ -1033,8 +1050,16 @@ std::string indexRow(const BatchRow& scan) {
   const Json* views = child(render, "views");
   const bool rendered = stageStatus(manifest, "render") == "succeeded" && views != nullptr && views->is_array() && !views->empty();
   if (rendered)
-    html += "<td class=\"thumb\"><img src=\"" + htmlEscape(urlPathEscape(base + rendersFolder(manifest) + "/view00_apo.png")) +
-            "\" alt=\"" + htmlEscape(dir) + ", view 00 with APO\" width=\"96\" height=\"96\"></td>";
+  {
+    // The thumbnail opens the scan's interactive view when the run made one.
+    const std::optional<std::string> viewer = textAt(&manifest, {"files", "viewer"});
+    const std::string image = "<img src=\"" + htmlEscape(urlPathEscape(base + rendersFolder(manifest) + "/view00_apo.png")) +
+                              "\" alt=\"" + htmlEscape(dir) + ", view 00 with APO\" width=\"96\" height=\"96\">";
+    html += "<td class=\"thumb\">" +
+            (viewer ? "<a href=\"" + htmlEscape(urlPathEscape(base + *viewer)) + "\" title=\"interactive view\">" + image + "</a>"
+                    : image) +
+            "</td>";
+  }
   else
     html += "<td class=\"thumb\"></td>";
 
@@ -1107,6 +1132,7 @@ std::string qaReportHtml(const nlohmann::json& manifest) {
     std::string html = pageStart("apo QA report: " + htmlEscape(name));
     html += header(manifest, name);
     html += verdict(manifest);
+    html += interactiveSection(manifest);
     html += viewsSection(manifest);
     html += chartsSection(manifest);
     html += metricsSection(manifest);

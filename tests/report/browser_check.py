@@ -92,8 +92,8 @@ class WebDriver:
             time.sleep(0.1)
         raise CheckFailed("chromedriver did not become ready")
 
-    def new_session(self, user_data_dir):
-        args = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+    def new_session(self, user_data_dir, extra_args=()):
+        args = [*extra_args, "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
                 "--disable-background-networking", "--disable-component-update", "--disable-sync",
                 f"--user-data-dir={user_data_dir}", f"--window-size={WINDOW_WIDTH},{WINDOW_HEIGHT}"]
         capabilities = {"alwaysMatch": {

@@ -401,5 +401,64 @@ TEST(BatchIndexHtml, AScanWithoutManifestIsListed) {
   EXPECT_THAT(html, HasSubstr("lost.ply"));
 }
 
+// A run that wrote viewer.html: report.html frames it (and links it) without
+// a script of its own; index.html's thumbnail opens it.
+TEST(ReportHtml, FramesTheViewerWhenTheRunWroteOne) {
+  Json m = succeededManifest("bunny.ply", 1);
+  EXPECT_THAT(qaReportHtml(m), Not(HasSubstr("<iframe")));
+  m["files"]["viewer"] = "viewer #1.html";
+  m["results"]["viewer"] = {{"bytes", 6739615}, {"detail", "M simplified <for> the viewer"}};
+  const std::string html = qaReportHtml(m);
+  EXPECT_THAT(html, HasSubstr("<iframe class=\"viewer\" src=\"viewer%20%231.html\""));
+  EXPECT_THAT(html, HasSubstr("<a href=\"viewer%20%231.html\">open it alone</a>"));
+  EXPECT_THAT(html, HasSubstr("M simplified &lt;for&gt; the viewer"));
+  EXPECT_THAT(html, HasSubstr("6.4 MiB"));
+  EXPECT_THAT(html, HasSubstr("frame-src 'self' file:"));
+  EXPECT_THAT(html, Not(HasSubstr("<script")));
+
+  const std::string index = batchIndexHtml({{"lab #1", m}}, Json::object());
+  EXPECT_THAT(index, HasSubstr("<a href=\"lab%20%231/viewer%20%231.html\" title=\"interactive view\"><img src=\"lab%20%231/render/view00_apo.png\""));
+}
+
+ViewerScene smallScene() {
+  ViewerScene scene;
+  scene.shaders.meshVertex = "vertex </script> text";
+  scene.textureWidth = 2;
+  scene.textureHeight = 1;
+  scene.texture = {0, 1, 2, 3, 250, 251, 252, 253};
+  scene.coarse.positions = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+  scene.coarse.normals = {0, 0, 1, 0, 0, 1, 0, 0, 1};
+  scene.coarse.indices = {0, 1, 2};
+  Camera view;
+  view.label = "+x</script>";
+  scene.views = {view};
+  return scene;
+}
+
+// The page's data is JSON inside a script element: nothing from the scan
+// (its name, a label, a shader) can end that element or become markup.
+TEST(ViewerHtml, HostileTextStaysInsideTheData) {
+  const std::string html = viewerHtml(smallScene(), "<img src=x onerror=alert(1)></script><!--.ply", {"render #1/view00_apo.png"});
+  EXPECT_THAT(html, HasSubstr("<title>&lt;img src=x onerror=alert(1)&gt;&lt;/script&gt;&lt;!--.ply: interactive view</title>"));
+  EXPECT_THAT(html, Not(HasSubstr("<img src=x")));
+  EXPECT_THAT(html, Not(HasSubstr("<!--.ply")));
+  EXPECT_EQ(occurrences(html, "</script>"), 2u);  // the data's and the script's own ends
+  EXPECT_THAT(html, HasSubstr("\\u003c/script>"));
+  EXPECT_THAT(html, HasSubstr("render%20%231/view00_apo.png"));
+  EXPECT_THAT(html, HasSubstr("script-src 'unsafe-inline'"));
+  EXPECT_THAT(html, Not(HasSubstr("http:")));
+  EXPECT_THAT(html, Not(HasSubstr("https:")));
+}
+
+// The binary arrays travel as base64 of their little-endian bytes: checked
+// against the RFC 4648 encoding of the same bytes (by Python's base64).
+TEST(ViewerHtml, CarriesTheTextureAndTheMeshAsBase64) {
+  const std::string html = viewerHtml(smallScene(), "s.ply", {});
+  EXPECT_THAT(html, HasSubstr("\"texels\":\"AAECA/r7/P0=\""));                 // 00 01 02 03 fa fb fc fd
+  EXPECT_THAT(html, HasSubstr("\"indices\":\"AAAAAAEAAAACAAAA\""));              // uint32 0 1 2
+  EXPECT_THAT(html, HasSubstr("\"positions\":\"AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA\""));
+  EXPECT_THAT(html, HasSubstr("\"detail\":null"));
+}
+
 }  // namespace
 }  // namespace apo
