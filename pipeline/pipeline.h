@@ -95,9 +95,9 @@ struct RunOutcome {
 // ---- The report's interactive view -------------------------------------------
 
 // M travels whole into viewer.html up to these sizes; beyond, a mesh is
-// simplified to kViewerMostTriangles and points are drawn from the coarsest
-// point-LOD level within kViewerMostPoints (docs/report.md, "The viewer"):
-// about 4 and 3 MB of base64 at most.
+// previewed at kViewerMostTriangles (reconstruct's previewMesh) and points
+// are drawn from the finest point-LOD level within kViewerMostPoints
+// (docs/report.md, "The viewer"): about 4 and 3.5 MB of base64 at most.
 inline constexpr std::size_t kViewerMostTriangles = 100000;
 inline constexpr std::size_t kViewerMostPoints = 120000;
 

@@ -3,6 +3,8 @@
 // what a page can carry (pipeline.h kViewerMostTriangles, kViewerMostPoints).
 #include "pipeline/pipeline.h"
 
+#include "core/text.h"
+
 #include <fmt/format.h>
 
 namespace apo {
@@ -13,16 +15,14 @@ Result<ViewerGeometry> detailGeometry(const Scan& detail) {
   if (!detail.isMesh()) return webglPoints(detail.points, kViewerMostPoints);
   if (detail.triangles.size() <= kViewerMostTriangles) {
     ViewerGeometry g = webglMesh(detail);
-    g.description = fmt::format("M, {} triangles", detail.triangles.size());
+    g.description = fmt::format("M, {} triangles", groupedDigits(detail.triangles.size()));
     return g;
   }
-  SimplifyOptions preview;
-  preview.targetFaces = kViewerMostTriangles;
-  auto simplified = simplifyMesh(detail, preview);
-  if (!simplified) return simplified.error();
-  ViewerGeometry g = webglMesh(simplified->mesh);
-  g.description = fmt::format("M simplified for the viewer: {} of its {} triangles", simplified->mesh.triangles.size(),
-                              detail.triangles.size());
+  auto preview = previewMesh(detail, kViewerMostTriangles);
+  if (!preview) return preview.error();
+  ViewerGeometry g = webglMesh(*preview);
+  g.description = fmt::format("M simplified for the viewer: {} of its {} triangles", groupedDigits(preview->triangles.size()),
+                              groupedDigits(detail.triangles.size()));
   return g;
 }
 
@@ -42,7 +42,7 @@ Result<ViewerScene> viewerScene(const Scan& coarse, const ApoTexture& apo, const
   scene.shaders = webglShaders();
   setWebglApo(apo, scene);
   scene.coarse = webglMesh(coarse);
-  scene.coarse.description = fmt::format("m, {} triangles", coarse.triangles.size());
+  scene.coarse.description = fmt::format("m, {} triangles", groupedDigits(coarse.triangles.size()));
   if (detail) {
     auto geometry = detailGeometry(*detail);
     if (!geometry) return geometry.error();

@@ -158,6 +158,12 @@ struct Simplification {
 Result<Simplification> simplifyMesh(const Scan& mesh, const SimplifyOptions& options,
                                     const ProgressCallback& onProgress = {});
 
+// A quick preview of a large mesh (the report's viewer): meshoptimizer's
+// collapses alone down to about `targetFaces`, M's vertices keeping their
+// normals; neither manifoldness nor borders are guarded and nothing is
+// measured, unlike simplifyMesh. Seconds for millions of triangles.
+Result<Scan> previewMesh(const Scan& mesh, std::uint64_t targetFaces);
+
 // Figures of a mesh, counted on its triangles as a soup (sorted edge lists and
 // union-find), so that non-manifold input is measured, not refused.
 MeshQuality measureMesh(const Scan& mesh);

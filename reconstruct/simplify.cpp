@@ -274,4 +274,13 @@ Result<Simplification> simplifyMesh(const Scan& mesh, const SimplifyOptions& opt
   return result;
 }
 
+Result<Scan> previewMesh(const Scan& mesh, std::uint64_t targetFaces) {
+  if (!mesh.isMesh()) return badInput("a preview needs a triangle mesh, got {} points and no triangles", mesh.points.size());
+  if (mesh.triangles.size() <= targetFaces) return mesh;
+  // Any error: a preview is held to its size, not to a distance.
+  auto collapsed = meshopt_adapter::quickCollapse(mesh, targetFaces, 1.0);
+  if (!collapsed) return collapsed.error();
+  return std::move(collapsed->mesh);
+}
+
 }  // namespace apo

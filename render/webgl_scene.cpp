@@ -4,6 +4,7 @@
 // as the passes draw it (docs/report.md, "The viewer").
 #include "render/render.h"
 
+#include "core/text.h"
 #include "render/shaders.h"
 
 #include <fmt/format.h>
@@ -84,9 +85,9 @@ Result<ViewerGeometry> webglPoints(const PointSet& points, std::size_t maxPoints
     appendVec3(g.normals, s.normal);
     g.radii.push_back(s.radius);
   }
-  g.description = level == 0 ? fmt::format("M as its {} points", points.size())
+  g.description = level == 0 ? fmt::format("M as its {} points", groupedDigits(points.size()))
                              : fmt::format("M as points: level {} of the point LOD, {} discs for {} points", level,
-                                           lod->levels[level].size(), points.size());
+                                           groupedDigits(lod->levels[level].size()), groupedDigits(points.size()));
   return g;
 }
 

@@ -4,6 +4,8 @@
 // htmlEscape (and urlPathEscape in src/href).
 #include "report/report.h"
 
+#include "core/text.h"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -61,19 +63,10 @@ constexpr const char* kNone = "&ndash;";  // shown for a missing figure
 
 std::string escaped(const std::optional<std::string>& s) { return s ? htmlEscape(*s) : kNone; }
 
-std::string grouped(std::uint64_t n) {
-  std::string digits = std::to_string(n), out;
-  for (std::size_t i = 0; i < digits.size(); ++i) {
-    if (i > 0 && (digits.size() - i) % 3 == 0) out += ',';
-    out += digits[i];
-  }
-  return out;
-}
-
 std::string count(std::optional<double> n) {
   if (!n) return kNone;
   if (*n < 0.0 || *n >= 1.8e19) return fmt::format("{:g}", *n);
-  return grouped(static_cast<std::uint64_t>(std::llround(*n)));
+  return groupedDigits(static_cast<std::uint64_t>(std::llround(*n)));
 }
 
 std::string fixed(std::optional<double> x, int digits) { return x ? fmt::format("{:.{}f}", *x, digits) : kNone; }

@@ -106,9 +106,9 @@ constexpr const char* kViewerStyle = R"(
 body { font: 14px/1.4 system-ui, -apple-system, "Segoe UI", Roboto, "DejaVu Sans", sans-serif; color: #1d1d1f;
        background: #f6f6f4; margin: 0; padding: 12px 16px; }
 h1 { font-size: 18px; margin: 0 0 8px; overflow-wrap: anywhere; }
-#viewer { display: flex; gap: 14px; align-items: flex-start; flex-wrap: wrap; }
-canvas { width: 1024px; height: 768px; background: #fff; border: 1px solid #d0d0cc; touch-action: none; cursor: grab; }
-#controls { width: 300px; }
+#viewer { display: grid; grid-template-columns: minmax(0, 1024px) 290px; gap: 14px; align-items: start; }
+canvas { width: 100%; height: auto; aspect-ratio: 4 / 3; background: #fff; border: 1px solid #d0d0cc; touch-action: none;
+         cursor: grab; }
 fieldset { border: 1px solid #d0d0cc; margin: 0 0 10px; padding: 6px 10px 8px; }
 legend { font-weight: 600; }
 #views button { font: 12px monospace; margin: 2px; padding: 2px 5px; }
@@ -318,7 +318,7 @@ const state = {
   camera: null, viewIndex: 0, mode: 'apo',
   filtering: scene.filtering, mipmapping: scene.mipmapping,
   headlight: true, lightAzimuth: 30, lightElevation: 30,
-  frameTimes: [],
+  frameTimes: [], moving: false,
 };
 const copyView = v => ({ eye: v.eye.slice(), target: v.target.slice(), up: v.up.slice(), fov: v.fov, near: v.near, far: v.far });
 
@@ -349,7 +349,9 @@ function drawPass(pass, c, t) {
     scene.apo.uniforms.forEach(u => setUniform(p, u));
     gl.uniform1i(gl.getUniformLocation(p, 'apoTexture'), 0);
     gl.uniform1i(gl.getUniformLocation(p, 'mipmapping'), state.mipmapping ? 1 : 0);
-    gl.uniform1i(gl.getUniformLocation(p, 'filtering'), state.filtering ? 1 : 0);
+    // While the camera moves, unfiltered (a quarter of the time in a software
+    // WebGL); the frame drawn once it rests is as set.
+    gl.uniform1i(gl.getUniformLocation(p, 'filtering'), state.filtering && !state.moving ? 1 : 0);
     gl.activeTexture(gl.TEXTURE0);
     gl.bindTexture(gl.TEXTURE_2D, apoTexture);
   }
@@ -417,6 +419,7 @@ function showReadout() {
       'frame: ' + median(state.frameTimes).toFixed(1) + ' ms (median of the last ' + state.frameTimes.length + ')\n' +
       canvas.width + ' x ' + canvas.height + ' px, ' + where + '\n' +
       'distance ' + length(sub(c.eye, c.target)).toPrecision(4) + '\n' +
+      (state.moving && state.filtering ? '(unfiltered while moving) ' : '') +
       (state.mode === 'heat' ? 'heat map: APO against M, 0 (dark) to ' + scene.heat_map_degrees + '+ degrees (yellow); grey: one of the two only'
                              : state.mode === 'apo' ? 'm with the APO' : geometry.description);
 }
@@ -424,6 +427,7 @@ function showReadout() {
 function setView(i) {
   state.viewIndex = i;
   state.camera = copyView(scene.views[i]);
+  state.moving = false;
   document.querySelectorAll('#views button').forEach((b, k) => b.classList.toggle('current', k === i));
   redraw();
 }
@@ -451,7 +455,8 @@ function orbit(dx, dy) {
 function pan(dx, dy) {
   const c = state.camera, back = sub(c.eye, c.target), d = length(back);
   const side = normalize(cross(c.up, back)), up = normalize(cross(back, side));
-  const perPixel = 2 * d * Math.tan(0.5 * c.fov * Math.PI / 180) / canvas.height;
+  // Pointer moves are in CSS pixels: the canvas may be shown smaller than its 1024 x 768.
+  const perPixel = 2 * d * Math.tan(0.5 * c.fov * Math.PI / 180) / canvas.clientHeight;
   const move = add(scale(side, -dx * perPixel), scale(up, dy * perPixel));
   c.eye = add(c.eye, move);
   c.target = add(c.target, move);
@@ -462,11 +467,20 @@ function zoom(factor) {
   fitPlanes(c);
 }
 
+// The camera is moving until a quarter second without a move.
+let restTimer = 0;
+function moved() {
+  state.moving = true;
+  clearTimeout(restTimer);
+  restTimer = setTimeout(() => { state.moving = false; redraw(); }, 250);
+  redraw();
+}
+
 let dragging = null;
 canvas.addEventListener('contextmenu', e => e.preventDefault());
 canvas.addEventListener('pointerdown', e => {
   dragging = { x: e.clientX, y: e.clientY, panning: e.shiftKey || e.button !== 0 };
-  canvas.setPointerCapture(e.pointerId);
+  try { canvas.setPointerCapture(e.pointerId); } catch (error) { /* a pointer the page did not see go down */ }
 });
 canvas.addEventListener('pointermove', e => {
   if (!dragging) return;
@@ -477,14 +491,14 @@ canvas.addEventListener('pointermove', e => {
   if (dragging.panning) pan(dx, dy);
   else orbit(dx, dy);
   fitPlanes(state.camera);
-  redraw();
+  moved();
 });
 canvas.addEventListener('pointerup', () => { dragging = null; });
 canvas.addEventListener('wheel', e => {
   e.preventDefault();
   freeCamera();
   zoom(Math.exp(e.deltaY * 0.001));
-  redraw();
+  moved();
 }, { passive: false });
 
 function buildControls() {
@@ -544,7 +558,7 @@ window.apoViewer = {
   // rows, bottom row first (GL's order).
   normals(i, size, pass, options) {
     const saved = Object.assign({}, state);
-    Object.assign(state, { headlight: true }, options || {});
+    Object.assign(state, { headlight: true, moving: false }, options || {});
     try {
       const t = target('probe', size, size);
       drawPass(pass || 'apo', copyView(scene.views[i]), t);
@@ -564,6 +578,7 @@ window.apoViewer = {
     for (let k = 0; k < frames; ++k) times.push(timedFrame());
     return median(times);
   },
+  camera() { return copyView(state.camera); },
   glError() { return gl.getError(); },
 };
 
@@ -583,7 +598,8 @@ constexpr const char* kViewerBody = R"(
 <label><input type="radio" name="mode" value="heat"> heat map: APO against M</label>
 </fieldset>
 <fieldset><legend>Views</legend><div id="views"></div>
-<p class="hint">Drag: orbit. Shift-drag or right-drag: pan. Wheel: zoom. A view's button resets to it.</p></fieldset>
+<p class="hint">Drag: orbit. Shift-drag or right-drag: pan. Wheel: zoom. A view's button resets to it; in red, a
+one-sided scan's views of its unscanned side (back faces tinted).</p></fieldset>
 <fieldset><legend>APO</legend>
 <label><input type="checkbox" id="filtering"> trilinear filtering (paper 5.3)</label>
 <label><input type="checkbox" id="mipmapping"> mip-mapping (paper 5.2)</label>

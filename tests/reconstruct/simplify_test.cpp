@@ -220,5 +220,26 @@ TEST(SimplifyMesh, SmallHolesAndLongBordersStillReachTheTarget) {
   EXPECT_NEAR(box.max.y(), 1.0f, 0.01f);
 }
 
+// The viewer's preview: about the target's faces, made of the input's own
+// vertices with their own normals, still on the sphere (a sphere's normal is
+// its position); a mesh already small enough comes back as it was.
+TEST(PreviewMesh, KeepsTheInputsVerticesAndNormalsAtAboutTheTarget) {
+  Scan dense = test::makeIcosphere(6);  // 81,920 faces
+  dense.points.normals = dense.points.positions;
+  auto preview = previewMesh(dense, 5000);
+  ASSERT_TRUE(preview.ok()) << preview.error().message;
+  EXPECT_LE(preview->triangles.size(), 5000u);
+  EXPECT_GT(preview->triangles.size(), 4000u);
+  ASSERT_EQ(preview->points.normals.size(), preview->points.size());
+  for (std::size_t i = 0; i < preview->points.size(); ++i) {
+    EXPECT_NEAR(preview->points.positions[i].norm(), 1.0f, 1e-5f);
+    EXPECT_EQ(preview->points.normals[i], preview->points.positions[i]);
+  }
+  auto same = previewMesh(dense, 100000);
+  ASSERT_TRUE(same.ok());
+  EXPECT_EQ(same->triangles, dense.triangles);
+  EXPECT_FALSE(previewMesh(Scan{}, 10).ok());  // no triangles
+}
+
 }  // namespace
 }  // namespace apo

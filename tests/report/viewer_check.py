@@ -146,6 +146,7 @@ def check_viewer(driver, directory, expected, deadline):
         if time.monotonic() > deadline:
             raise Timeout()
 
+    problems += check_interaction(driver)
     for mode in ("apo", "coarse", "detail", "heat"):
         driver.execute("window.apoViewer.setMode(arguments[0]); window.apoViewer.setView(0);", [mode])
         milliseconds = driver.execute("return window.apoViewer.timeFrames(arguments[0]);", [TIMED_FRAMES])
@@ -155,6 +156,56 @@ def check_viewer(driver, directory, expected, deadline):
     if gl_error:
         problems.append(f"WebGL error {gl_error}")
     problems += [f"browser log SEVERE: {m}" for m in severe_entries(driver)]
+    return problems
+
+
+def check_interaction(driver):
+    """A drag orbits (the eye moves, its distance to the target stays), the wheel zooms, shift-drag pans,
+    the light moves the shading, and a view's button restores the view exactly."""
+    problems = []
+    script = """
+const canvas = document.getElementById('canvas'), v = window.apoViewer;
+const distance = c => Math.hypot(c.eye[0] - c.target[0], c.eye[1] - c.target[1], c.eye[2] - c.target[2]);
+const drag = (shift) => {
+  const at = (x, y, type) => canvas.dispatchEvent(new PointerEvent(type, {clientX: x, clientY: y, button: 0,
+      shiftKey: shift, pointerId: 1, bubbles: true}));
+  at(300, 300, 'pointerdown'); at(360, 330, 'pointermove'); at(360, 330, 'pointerup');
+};
+const pixels = () => { const c = document.createElement('canvas'); c.width = 64; c.height = 48;
+  const g = c.getContext('2d'); g.drawImage(canvas, 0, 0, 64, 48); return Array.from(g.getImageData(0, 0, 64, 48).data); };
+v.setMode('apo'); v.setView(0); v.timeFrames(1);
+const start = v.camera();
+drag(false);
+const orbited = v.camera();
+canvas.dispatchEvent(new WheelEvent('wheel', {deltaY: 500, bubbles: true, cancelable: true}));
+const zoomed = v.camera();
+drag(true);
+const panned = v.camera();
+v.setView(0); v.timeFrames(1);
+const headlit = pixels();
+document.getElementById('headlight').click(); v.timeFrames(1);
+const lit = pixels();
+document.getElementById('headlight').click();
+v.setView(0);
+const back = v.camera();
+let changed = 0; for (let i = 0; i < lit.length; ++i) if (lit[i] !== headlit[i]) ++changed;
+return {start, orbited, zoomed, panned, back, changed,
+        d0: distance(start), d1: distance(orbited), d2: distance(zoomed), d3: distance(panned)};
+"""
+    r = driver.execute(script)
+    moved = lambda a, b: max(abs(x - y) for x, y in zip(a, b)) > 1e-4  # noqa: E731
+    if not moved(r["start"]["eye"], r["orbited"]["eye"]) or abs(r["d1"] - r["d0"]) > 1e-4 * r["d0"]:
+        problems.append(f"a drag does not orbit: {r['start']} -> {r['orbited']}")
+    if not r["d2"] > 1.5 * r["d1"]:
+        problems.append(f"the wheel does not zoom out: distance {r['d1']} -> {r['d2']}")
+    if not moved(r["zoomed"]["target"], r["panned"]["target"]) or abs(r["d3"] - r["d2"]) > 1e-4 * r["d2"]:
+        problems.append(f"shift-drag does not pan: {r['zoomed']} -> {r['panned']}")
+    if r["back"] != r["start"]:
+        problems.append(f"view 0's button does not restore it: {r['back']} != {r['start']}")
+    if r["changed"] == 0:
+        problems.append("moving the light off the headlight changes nothing")
+    print(f"viewer_check: interaction: orbit keeps the distance {r['d0']:.4f}, zoom to {r['d2']:.4f}, pan moves the "
+          f"target; {r['changed']} colour values change with the light; view 0 restored")
     return problems
 
 
