@@ -185,7 +185,8 @@ vec4 shade(vec3 n, vec3 p) {
 // reads as a back face rather than as black surface. Only the shaded image
 // changes; the normal buffers keep the surface's normal.
 const vec3 BACK_FACE_TINT = vec3(1.0, 0.62, 0.5);
-vec4 shadeSide(vec3 n, vec3 p) { return gl_FrontFacing ? shade(n, p) : vec4(shade(-n, p).rgb * BACK_FACE_TINT, 1.0); }
+vec4 shadeFacing(vec3 n, vec3 p, bool front) { return front ? shade(n, p) : vec4(shade(-n, p).rgb * BACK_FACE_TINT, 1.0); }
+vec4 shadeSide(vec3 n, vec3 p) { return shadeFacing(n, p, gl_FrontFacing); }
 )";
 
 // M (reference) or m (baseline) with their interpolated vertex normals.
@@ -497,8 +498,7 @@ void main() {
   vec2 d = 2.0 * gl_PointCoord - 1.0;
   if (dot(d, d) > 1.0) discard;
   vec3 n = normalize(worldNormal);
-  bool front = dot(n, eye - worldPosition) >= 0.0;
-  shaded = front ? shade(n, worldPosition) : vec4(shade(-n, worldPosition).rgb * BACK_FACE_TINT, 1.0);
+  shaded = shadeFacing(n, worldPosition, dot(n, eye - worldPosition) >= 0.0);
   normalAndCoverage = vec4(n, 1.0);
 }
 )";

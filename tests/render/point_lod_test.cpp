@@ -7,6 +7,7 @@
 
 #include "tests/test_support.h"
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -175,6 +176,30 @@ TEST(BuildPointLod, RefusesPointsWithoutNormals) {
 // chooseLodLevel picks on the CPU (counted by GL_PRIMITIVES_GENERATED); at
 // a huge threshold only the patches, at a tiny one every point; and the
 // normals it draws are close to every point's disc.
+// The report's viewer draws M's points from the finest LOD level within its
+// limit: every point when they fit, else that level's discs, as built.
+TEST(WebglPoints, TheFinestLevelWithinTheLimit) {
+  const PointSet points = spherePoints(6000);
+  auto lod = buildPointLod(points);
+  ASSERT_TRUE(lod.ok()) << lod.error().message;
+  auto all = webglPoints(points, 6000);
+  ASSERT_TRUE(all.ok()) << all.error().message;
+  EXPECT_EQ(all->radii.size(), 6000u);
+  EXPECT_EQ(all->description, "M as its 6,000 points");
+  const std::size_t limit = lod->levels[1].size();  // level 0 does not fit, level 1 just does
+  auto some = webglPoints(points, limit);
+  ASSERT_TRUE(some.ok()) << some.error().message;
+  ASSERT_EQ(some->radii.size(), limit);
+  EXPECT_EQ(some->positions.size(), 3 * limit);
+  EXPECT_FALSE(some->isMesh());
+  for (std::size_t i = 0; i < limit; ++i) {
+    EXPECT_EQ(some->radii[i], lod->levels[1][i].radius);
+    EXPECT_EQ(some->positions[3 * i], lod->levels[1][i].position.x());
+    EXPECT_EQ(some->normals[3 * i + 2], lod->levels[1][i].normal.z());
+  }
+  EXPECT_THAT(some->description, ::testing::HasSubstr("level 1 of the point LOD"));
+}
+
 TEST(PointLodRender, TheGeometryShaderDrawsTheLevelsTheCpuChooses) {
   const PointSet points = spherePoints(20000);
   Scan detail;
