@@ -136,6 +136,7 @@ int main(int argc, char** argv) {
   addRenderCommand(app, exitCode);
   addRunCommand(app, exitCode);
   addBatchCommand(app, exitCode);
+  addSlurmCommand(app, exitCode);
   addExportCommand(app, exitCode);
 
   if (!asksForHelpOrVersion(argc, argv))

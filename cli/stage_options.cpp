@@ -250,7 +250,9 @@ std::vector<std::string> givenStageArguments(const CLI::App& app) {
   // Not stage options: where outputs go, how the batch itself runs, and what
   // the worker is given anyway (its threads) or has already been applied
   // (the config file's options are among the given ones).
-  static const std::vector<std::string> kNotPassed = {"--out", "--jobs", "--threads", "--config", "--help", "--scan-timeout"};
+  static const std::vector<std::string> kNotPassed = {"--out",   "--jobs",  "--threads",   "--config", "--help", "--scan-timeout",
+                                                      "--shard", "--merge", "--tasks",     "--partition", "--time", "--mem",
+                                                      "--cpus",  "--dry-run"};
   std::vector<std::string> arguments;
   for (const CLI::Option* option : app.get_options()) {
     const std::string name = option->get_name();

@@ -124,16 +124,19 @@ Status checkOutputFolderIsOurs(const fs::path& folder) {
 // same folder would undo each other's work. The lock goes with the process.
 class OutputLock {
  public:
-  static Result<OutputLock> take(const fs::path& outDir) {
+  // A shard locks its own share only: shards write disjoint scan folders.
+  static Result<OutputLock> take(const fs::path& outDir, const std::optional<Shard>& shard) {
     std::error_code error;
     fs::create_directories(outDir, error);
     if (error) return internalError("{}: cannot create the output folder: {}", outDir.string(), error.message());
-    const fs::path lockPath = outDir / ".apo-batch.lock";
+    const fs::path lockPath =
+        shard ? outDir / fmt::format(".apo-batch-{}-of-{}.lock", shard->index, shard->count) : outDir / ".apo-batch.lock";
     const int fd = open(lockPath.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
     if (fd < 0) return internalError("{}: cannot open: {}", lockPath.string(), std::strerror(errno));
     if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
       close(fd);
-      return usageError("{}: another apo batch is writing to this folder", outDir.string());
+      return usageError("{}: another apo batch is writing to this folder{}", outDir.string(),
+                        shard ? fmt::format(" (shard {}/{})", shard->index, shard->count) : "");
     }
     return OutputLock(fd);
   }
@@ -167,7 +170,7 @@ class Batch {
         workers_(std::max(1, std::min(settings.jobs, static_cast<int>(jobs_.size())))),
         pool_(settings.scanTimeout) {
     const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-    threadsEach_ = std::max(1, cores / workers_);
+    threadsEach_ = settings.threads > 0 ? settings.threads : std::max(1, cores / workers_);
     summary_.scans = jobs_.size();
   }
 
@@ -255,31 +258,78 @@ class Batch {
   BatchSummary summary_;
 };
 
+Json summaryJson(const BatchSummary& summary, const std::vector<NotProcessed>& others) {
+  Json notProcessed = Json::array();
+  for (const NotProcessed& other : others) notProcessed.push_back({{"file", other.relative}, {"reason", other.reason}});
+  return {{"scans", summary.scans},
+          {"succeeded", summary.succeeded},
+          {"failed", summary.failed},
+          {"skipped_up_to_date", summary.upToDate},
+          {"not_processed", summary.notProcessed},
+          {"not_processed_files", notProcessed},
+          {"seconds", summary.seconds}};
+}
+
 // index.html and summary.json, from every scan's manifest, and the files
 // not processed with their reasons.
-Status writeBatchPages(const BatchSettings& settings, const std::vector<ScanJob>& jobs,
-                       const std::vector<NotProcessed>& others, const BatchSummary& summary) {
+Status writeBatchPages(const fs::path& outDir, const std::vector<ScanJob>& jobs, const std::vector<NotProcessed>& others,
+                       const Json& summary) {
   std::vector<BatchRow> rows;
   for (const ScanJob& job : jobs) {
     const std::optional<Json> found = manifest::read(job.outDir);
     rows.push_back({job.relative, found ? nlohmann::json::parse(found->dump()) : nlohmann::json::object()});
   }
-  nlohmann::json notProcessed = nlohmann::json::array();
-  for (const NotProcessed& other : others) {
+  for (const NotProcessed& other : others)
     rows.push_back({other.relative, {{"status", "not_processed"},
                                      {"input", {{"name", fs::path(other.relative).filename().string()}}},
                                      {"reason", other.reason}}});
-    notProcessed.push_back({{"file", other.relative}, {"reason", other.reason}});
+  const nlohmann::json page = nlohmann::json::parse(summary.dump());
+  APO_RETURN_IF_ERROR(writeFileAtomically(outDir / "index.html", batchIndexHtml(rows, page)));
+  return writeFileAtomically(outDir / "summary.json", summary.dump(2) + "\n");
+}
+
+constexpr const char* kShardsFolder = ".apo-shards";
+
+fs::path shardSummaryPath(const fs::path& outDir, const Shard& shard) {
+  return outDir / kShardsFolder / fmt::format("{}-of-{}.json", shard.index, shard.count);
+}
+
+// The scans found, or those of one shard.
+std::vector<ScanJob> shareOf(std::vector<ScanJob> scans, const std::optional<Shard>& shard) {
+  if (!shard) return scans;
+  std::erase_if(scans, [&](const ScanJob& job) { return shardOf(job.relative, shard->count) != shard->index; });
+  return scans;
+}
+
+// The shards' own summaries under OUTDIR/.apo-shards, by file name.
+std::vector<Json> shardSummaries(const fs::path& outDir) {
+  std::vector<std::pair<std::string, Json>> found;
+  std::error_code error;
+  for (const fs::directory_entry& entry : fs::directory_iterator(outDir / kShardsFolder, error)) {
+    if (entry.path().extension() != ".json") continue;
+    auto text = readFileBytes(entry.path());
+    if (!text) continue;
+    Json summary = Json::parse(*text, nullptr, false);
+    if (summary.is_discarded() || !summary.is_object()) {
+      spdlog::warn("batch: {}: not a shard summary, left out", entry.path().string());
+      continue;
+    }
+    found.emplace_back(entry.path().filename().string(), std::move(summary));
   }
-  const nlohmann::json summaryJson = {{"scans", summary.scans},
-                                      {"succeeded", summary.succeeded},
-                                      {"failed", summary.failed},
-                                      {"skipped_up_to_date", summary.upToDate},
-                                      {"not_processed", summary.notProcessed},
-                                      {"not_processed_files", notProcessed},
-                                      {"seconds", summary.seconds}};
-  APO_RETURN_IF_ERROR(writeFileAtomically(settings.outDir / "index.html", batchIndexHtml(rows, summaryJson)));
-  return writeFileAtomically(settings.outDir / "summary.json", summaryJson.dump(2) + "\n");
+  std::sort(found.begin(), found.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<Json> summaries;
+  for (auto& [name, summary] : found) summaries.push_back(std::move(summary));
+  return summaries;
+}
+
+Result<FolderContents> scansOrError(const BatchSettings& settings) {
+  auto found = findScans(settings.scanDir, settings.outDir);
+  if (!found) return found.error();
+  for (const NotProcessed& other : found->others) spdlog::warn("batch: {} not processed: {}", other.relative, other.reason);
+  if (found->scans.empty())
+    return badInput("{}: no scans found (extensions: {}){}", settings.scanDir.string(), scanExtensionList(),
+                    found->others.empty() ? "" : fmt::format("; {} other files not processed", found->others.size()));
+  return found;
 }
 
 }  // namespace
@@ -287,24 +337,80 @@ Status writeBatchPages(const BatchSettings& settings, const std::vector<ScanJob>
 Result<BatchSummary> runBatch(const BatchSettings& settings) {
   const Stopwatch stopwatch;
   APO_RETURN_IF_ERROR(validateRunOptions(settings.options));
-  auto lock = OutputLock::take(settings.outDir);
+  auto lock = OutputLock::take(settings.outDir, settings.shard);
   if (!lock) return lock.error();
-  auto found = findScans(settings.scanDir, settings.outDir);
+  auto found = scansOrError(settings);
   if (!found) return found.error();
-  for (const NotProcessed& other : found->others) spdlog::warn("batch: {} not processed: {}", other.relative, other.reason);
-  if (found->scans.empty())
-    return badInput("{}: no scans found (extensions: {}){}", settings.scanDir.string(), scanExtensionList(),
-                    found->others.empty() ? "" : fmt::format("; {} other files not processed", found->others.size()));
-  Batch batch(settings, std::move(found->scans));
+  Batch batch(settings, shareOf(std::move(found->scans), settings.shard));
   APO_RETURN_IF_ERROR(batch.run());
   BatchSummary& summary = batch.summary();
   summary.notProcessed = found->others.size();
   summary.seconds = stopwatch.seconds();
-  APO_RETURN_IF_ERROR(writeBatchPages(settings, batch.jobs(), found->others, summary));
-  spdlog::info("batch: {} succeeded, {} failed, {} up to date, {} files not processed in {:.1f} s -> {}",
+  Json written = summaryJson(summary, found->others);
+  if (settings.shard) {
+    written["shard"] = fmt::format("{}/{}", settings.shard->index, settings.shard->count);
+    const fs::path path = shardSummaryPath(settings.outDir, *settings.shard);
+    std::error_code error;
+    fs::create_directories(path.parent_path(), error);
+    APO_RETURN_IF_ERROR(writeFileAtomically(path, written.dump(2) + "\n"));
+  } else {
+    APO_RETURN_IF_ERROR(writeBatchPages(settings.outDir, batch.jobs(), found->others, written));
+  }
+  spdlog::info("batch{}: {} succeeded, {} failed, {} up to date, {} files not processed in {:.1f} s -> {}",
+               settings.shard ? fmt::format(" shard {}/{}", settings.shard->index, settings.shard->count) : "",
                summary.succeeded, summary.failed, summary.upToDate, summary.notProcessed, summary.seconds,
-               (settings.outDir / "index.html").string());
+               settings.shard ? shardSummaryPath(settings.outDir, *settings.shard).string()
+                              : (settings.outDir / "index.html").string());
   return summary;
+}
+
+Result<BatchSummary> mergeBatch(const BatchSettings& settings) {
+  auto found = scansOrError(settings);
+  if (!found) return found.error();
+  BatchSummary summary;
+  summary.scans = found->scans.size();
+  summary.notProcessed = found->others.size();
+  for (const ScanJob& job : found->scans) {
+    const std::optional<Json> written = manifest::read(job.outDir);
+    ++(written && written->value("status", "") == "succeeded" ? summary.succeeded : summary.failed);
+  }
+  Json shards = Json::array();
+  for (const Json& shard : shardSummaries(settings.outDir)) {
+    summary.seconds += shard.value("seconds", 0.0);
+    summary.upToDate += shard.value("skipped_up_to_date", std::uint64_t{0});
+    shards.push_back({{"shard", shard.value("shard", "")}, {"scans", shard.value("scans", 0)},
+                      {"succeeded", shard.value("succeeded", 0)}, {"failed", shard.value("failed", 0)},
+                      {"skipped_up_to_date", shard.value("skipped_up_to_date", 0)}, {"seconds", shard.value("seconds", 0.0)}});
+  }
+  Json written = summaryJson(summary, found->others);
+  written["seconds_are"] = "the sum of the shards' wall times";
+  written["shards"] = std::move(shards);
+  APO_RETURN_IF_ERROR(writeBatchPages(settings.outDir, found->scans, found->others, written));
+  spdlog::info("batch merge: {} scans, {} succeeded, {} failed, from {} shard summaries -> {}", summary.scans,
+               summary.succeeded, summary.failed, written["shards"].size(), (settings.outDir / "index.html").string());
+  return summary;
+}
+
+int shardOf(std::string_view relativePath, int count) {
+  const std::string digest = sha256OfBytes(relativePath);  // hex
+  const std::uint64_t first8 = std::stoull(digest.substr(0, 16), nullptr, 16);
+  return static_cast<int>(first8 % static_cast<std::uint64_t>(count));
+}
+
+Result<Shard> parseShard(std::string_view text) {
+  const std::size_t slash = text.find('/');
+  Shard shard;
+  const auto number = [](std::string_view digits, int& out) {
+    if (digits.empty() || digits.size() > 6 || !std::all_of(digits.begin(), digits.end(), [](char c) { return c >= '0' && c <= '9'; }))
+      return false;
+    out = std::stoi(std::string(digits));
+    return true;
+  };
+  if (slash == std::string_view::npos || !number(text.substr(0, slash), shard.index) ||
+      !number(text.substr(slash + 1), shard.count) || shard.count < 1 || shard.count > kMostShards ||
+      shard.index >= shard.count)
+    return usageError("--shard {}: expected I/N with 0 <= I < N <= {} (Slurm: $SLURM_ARRAY_TASK_ID/N)", text, kMostShards);
+  return shard;
 }
 
 }  // namespace apo

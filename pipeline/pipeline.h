@@ -18,6 +18,8 @@
 #include <nlohmann/json.hpp>
 
 #include <array>
+#include <optional>
+#include <string_view>
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
@@ -114,9 +116,28 @@ RunOutcome runPipeline(const RunSettings& settings, Progress& progress);
 
 // ---- apo batch ---------------------------------------------------------------
 
+// One of `count` parts of a batch (`--shard index/count`, index from 0):
+// the scans whose shardOf is `index`.
+struct Shard {
+  int index = 0, count = 1;
+};
+inline constexpr int kMostShards = 100000;
+
+// The shard of a scan, from its own path under SCANDIR (generic form) alone:
+// the first 8 bytes of the path's SHA-256, big-endian, modulo `count`. So a
+// scan keeps its shard when other scans come or go, on any machine.
+int shardOf(std::string_view relativePath, int count);
+// "I/N" with 0 <= I < N <= kMostShards; a Usage error naming --shard else.
+Result<Shard> parseShard(std::string_view text);
+
 struct BatchSettings {
   std::filesystem::path scanDir, outDir;
+  // Only this shard's scans (docs/cluster.md): the shard's own lock and its
+  // summary in OUTDIR/.apo-shards/I-of-N.json; index.html and summary.json
+  // are left to mergeBatch.
+  std::optional<Shard> shard;
   int jobs = 1;              // scans at a time; the cores are shared among them
+  int threads = 0;           // each worker's threads; 0: the cores divided among the jobs
   double scanTimeout = 0.0;  // seconds; 0: none
   RunOptions options;        // what each scan runs with (resume compares them)
   // The same options as `apo run` arguments, passed to every worker as they
@@ -138,6 +159,42 @@ struct BatchSummary {
 // reason. BadInput when scanDir holds no scan; Usage when another batch holds
 // outDir. A failed scan is counted, never an error.
 Result<BatchSummary> runBatch(const BatchSettings& settings);
+
+// `apo batch --merge`: index.html and summary.json of OUTDIR from every
+// scan's manifest, whichever shard or machine wrote it, with the shards'
+// summaries (OUTDIR/.apo-shards/) listed in summary.json. Runs no scan; a
+// scan without a manifest counts as failed ("no manifest").
+Result<BatchSummary> mergeBatch(const BatchSettings& settings);
+
+// ---- apo slurm ---------------------------------------------------------------
+
+struct SlurmSettings {
+  std::filesystem::path scanDir, outDir;  // absolute: the jobs run elsewhere
+  int tasks = 1;                           // the array's tasks, each one shard
+  std::string partition, time, memory;     // sbatch's; empty: the cluster's default
+  int cpusPerTask = 1;
+  std::filesystem::path executable;        // apo on the nodes
+  std::vector<std::string> workerArguments;  // stage options, passed to every task
+};
+
+struct SlurmScripts {
+  std::string array, merge;                  // sbatch scripts
+  std::filesystem::path arrayLog, mergeLog;  // sbatch --output (%a: the task)
+};
+
+// The job array (task I runs `apo batch --shard I/N`, requeued after a node
+// failure or preemption) and the merge job (`apo batch --merge`), as bash
+// scripts for sbatch; every path and argument single-quoted.
+SlurmScripts slurmScripts(const SlurmSettings& settings);
+
+struct SlurmJobs {
+  std::string arrayJob, mergeJob;  // Slurm's job ids
+};
+
+// Writes the scripts to OUTDIR/slurm/ and submits them: the array, then the
+// merge with --dependency=afterany on it. sbatch's own error, named, when it
+// refuses.
+Result<SlurmJobs> submitSlurm(const SlurmSettings& settings);
 
 // ---- The stages with their production seams ------------------------------------
 

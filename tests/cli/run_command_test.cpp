@@ -3,6 +3,7 @@
 #include "core/file_io.h"
 #include "format/format.h"
 #include "ingest/ingest.h"
+#include "pipeline/pipeline.h"
 #include "tests/bake/bumpy_sphere.h"
 #include "tests/test_support.h"
 
@@ -484,6 +485,81 @@ TEST(BatchCommand, TwoBatchesCannotWriteTheSameFolder) {
                                           (dir / "out").string(), kQuick);
   const auto both = test::runCommand(fmt::format("{{ {} & sleep 0.3; {}; wait; }} 2>&1", command, command));
   EXPECT_THAT(both.output, HasSubstr("another apo batch is writing to this folder"));
+}
+
+// A cluster's job array (docs/cluster.md): every scan in exactly one shard
+// for N = 1..16; a scan's shard is its own path's, so adding scans moves no
+// other; the shards are about even.
+TEST(Shard, EveryScanInExactlyOneShardAndAddingScansMovesNoOther) {
+  std::vector<std::string> paths;
+  for (int i = 0; i < 400; ++i) paths.push_back(fmt::format("lab {}/scan_{:03d}.ply", i % 7, i));
+  for (int n = 1; n <= 16; ++n) {
+    std::vector<int> seen(paths.size(), 0);
+    std::vector<int> perShard(n, 0);
+    for (int index = 0; index < n; ++index)
+      for (std::size_t i = 0; i < paths.size(); ++i)
+        if (shardOf(paths[i], n) == index) {
+          ++seen[i];
+          ++perShard[index];
+        }
+    EXPECT_EQ(std::count(seen.begin(), seen.end(), 1), static_cast<long>(paths.size())) << "N " << n;
+    for (int count : perShard) EXPECT_NEAR(count, 400.0 / n, 5.0 * std::sqrt(400.0 / n) + 1.0) << "N " << n;
+  }
+  std::vector<int> before;
+  for (const std::string& path : paths) before.push_back(shardOf(path, 8));
+  paths.insert(paths.begin() + 17, "lab 3/new scan.ply");
+  paths.push_back("zz/last.ply");
+  std::vector<int> after;
+  for (const std::string& path : paths)
+    if (path != "lab 3/new scan.ply" && path != "zz/last.ply") after.push_back(shardOf(path, 8));
+  EXPECT_EQ(after, before);
+  // The first 8 bytes of SHA-256("a.ply"), big-endian, modulo N (Python's hashlib gives the digest).
+  EXPECT_EQ(shardOf("a.ply", 1000), static_cast<int>(0xfc86562d2e574325ull % 1000));
+}
+
+TEST(Shard, ParsesIOfNAndRefusesTheRest) {
+  auto shard = parseShard("3/8");
+  ASSERT_TRUE(shard.ok());
+  EXPECT_EQ(shard->index, 3);
+  EXPECT_EQ(shard->count, 8);
+  for (const char* bad : {"8/8", "0/0", "-1/3", "1", "a/3", "1/b", "/3", "1/", "1/100001"}) {
+    const auto refused = parseShard(bad);
+    ASSERT_FALSE(refused.ok()) << bad;
+    EXPECT_THAT(refused.error().message, HasSubstr("--shard")) << bad;
+  }
+}
+
+// Shards run apart (here one after the other, and two at once: each holds
+// its own lock), then the merge writes the pages: the same scans' outputs as
+// one batch, every scan listed, the broken ones once.
+TEST(BatchCommand, ShardsThenMergeGiveTheBatchsOutputs) {
+  const fs::path dir = test::freshTempDir();
+  const fs::path scans = makeScanFolder(dir);
+  ASSERT_EQ(apo(fmt::format("batch '{}' -o '{}' {}", scans.string(), (dir / "one").string(), kQuick)).exitCode, 2);
+  const fs::path out = dir / "sharded";
+  const std::string shard = fmt::format("{} batch '{}' -o '{}' {} --shard", test::apoExecutable().string(), scans.string(),
+                                        out.string(), kQuick);
+  const auto both = test::runCommand(fmt::format("{{ {} 0/3 & {} 1/3; wait; }} 2>&1", shard, shard));
+  EXPECT_THAT(both.output, Not(HasSubstr("another apo batch")));
+  test::runCommand(shard + " 2/3");
+  EXPECT_FALSE(fs::exists(out / "index.html"));  // the merge's
+  const auto merged = apo(fmt::format("batch '{}' -o '{}' --merge", scans.string(), out.string()));
+  EXPECT_EQ(merged.exitCode, 2) << merged.output;
+  const nlohmann::json summary = readJson(out / "summary.json");
+  EXPECT_EQ(summary["scans"], 4);
+  EXPECT_EQ(summary["succeeded"], 2);
+  EXPECT_EQ(summary["failed"], 2);
+  ASSERT_EQ(summary["shards"].size(), 3u);
+  int scansInShards = 0;
+  for (const auto& s : summary["shards"]) scansInShards += s["scans"].get<int>();
+  EXPECT_EQ(scansInShards, 4);
+  EXPECT_EQ(lastingOutputs(out), lastingOutputs(dir / "one"));
+  const std::string index = fileBytes(out / "index.html");
+  for (const char* name : {"a.ply", "truncated.ply", "empty.xyz", "&lt;img src=x onerror=alert(1)&gt;.ply"})
+    EXPECT_THAT(index, HasSubstr(name));
+  std::size_t failedRows = 0;
+  for (std::size_t at = index.find("FAILED"); at != std::string::npos; at = index.find("FAILED", at + 1)) ++failedRows;
+  EXPECT_EQ(failedRows, 2u);
 }
 
 }  // namespace

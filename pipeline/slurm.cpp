@@ -1,0 +1,130 @@
+// `apo slurm`: `apo batch` as a Slurm job array, one shard per task, and a
+// merge job after it (docs/cluster.md). Slurm schedules; apo only writes the
+// scripts and hands them to sbatch.
+#include "pipeline/pipeline.h"
+
+#include "core/file_io.h"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <array>
+#include <cerrno>
+#include <cstring>
+
+namespace apo {
+namespace fs = std::filesystem;
+namespace {
+
+// A word for bash, single-quoted: nothing in it is expanded.
+std::string bashWord(std::string_view word) {
+  std::string out = "'";
+  for (char c : word) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
+}
+
+std::string bashWords(const std::vector<std::string>& words) {
+  std::string out;
+  for (const std::string& word : words) out += " " + bashWord(word);
+  return out;
+}
+
+// The log's path goes on sbatch's command line (SlurmScripts), where a space
+// or a quote in it needs no parsing.
+std::string sbatchOptions(const SlurmSettings& s, std::string_view name) {
+  std::string out = fmt::format("#SBATCH --job-name={}\n#SBATCH --cpus-per-task={}\n", name, s.cpusPerTask);
+  if (!s.partition.empty()) out += fmt::format("#SBATCH --partition={}\n", s.partition);
+  if (!s.time.empty()) out += fmt::format("#SBATCH --time={}\n", s.time);
+  if (!s.memory.empty()) out += fmt::format("#SBATCH --mem={}\n", s.memory);
+  return out;
+}
+
+// Runs `arguments` (no shell) and returns what it printed on stdout, or an
+// error with what it printed on stderr.
+Result<std::string> capture(const std::vector<std::string>& arguments) {
+  std::array<int, 2> out{}, err{};
+  if (pipe(out.data()) != 0 || pipe(err.data()) != 0) return internalError("pipe: {}", std::strerror(errno));
+  const pid_t pid = fork();
+  if (pid < 0) return internalError("fork: {}", std::strerror(errno));
+  if (pid == 0) {
+    dup2(out[1], STDOUT_FILENO);
+    dup2(err[1], STDERR_FILENO);
+    close(out[0]);
+    close(err[0]);
+    std::vector<char*> argv;
+    for (const std::string& a : arguments) argv.push_back(const_cast<char*>(a.c_str()));
+    argv.push_back(nullptr);
+    execvp(argv[0], argv.data());
+    std::fprintf(stderr, "cannot run %s: %s\n", argv[0], std::strerror(errno));
+    _exit(127);
+  }
+  close(out[1]);
+  close(err[1]);
+  const auto drain = [](int fd) {
+    std::string text;
+    std::array<char, 4096> buffer{};
+    for (ssize_t n; (n = read(fd, buffer.data(), buffer.size())) > 0;) text.append(buffer.data(), static_cast<std::size_t>(n));
+    close(fd);
+    return text;
+  };
+  const std::string printed = drain(out[0]), complaint = drain(err[0]);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
+    return badInput("{} failed: {}", arguments.front(), complaint.empty() ? "no message" : complaint);
+  return printed;
+}
+
+// `sbatch --parsable` prints "JOBID" or "JOBID;CLUSTER".
+Result<std::string> submit(const std::vector<std::string>& arguments) {
+  auto printed = capture(arguments);
+  if (!printed) return printed.error();
+  std::string id = printed->substr(0, printed->find_first_of(";\n"));
+  if (id.empty() || !std::all_of(id.begin(), id.end(), [](char c) { return c >= '0' && c <= '9'; }))
+    return internalError("sbatch printed no job id: {}", *printed);
+  return id;
+}
+
+}  // namespace
+
+SlurmScripts slurmScripts(const SlurmSettings& s) {
+  const std::string apo = bashWord(s.executable.string()), scans = bashWord(s.scanDir.string()), out = bashWord(s.outDir.string());
+  SlurmScripts scripts;
+  scripts.arrayLog = s.outDir / "slurm" / "task-%a.log";
+  scripts.mergeLog = s.outDir / "slurm" / "merge.log";
+  // --requeue: a task stopped by preemption or a node failure runs again and
+  // resumes (its finished scans are up to date; the interrupted one is redone).
+  scripts.array = "#!/bin/bash\n" + sbatchOptions(s, "apo-batch") +
+                  fmt::format("#SBATCH --array=0-{}\n#SBATCH --requeue\nset -eu\n", s.tasks - 1) +
+                  fmt::format("exec {} batch {} -o {} --shard \"$SLURM_ARRAY_TASK_ID/{}\" --jobs 1 --threads \"${{SLURM_CPUS_PER_TASK:-1}}\"{}\n",
+                              apo, scans, out, s.tasks, bashWords(s.workerArguments));
+  SlurmSettings mergeSettings = s;
+  mergeSettings.cpusPerTask = 1;
+  scripts.merge = "#!/bin/bash\n" + sbatchOptions(mergeSettings, "apo-merge") +
+                  fmt::format("set -eu\nexec {} batch {} -o {} --merge\n", apo, scans, out);
+  return scripts;
+}
+
+Result<SlurmJobs> submitSlurm(const SlurmSettings& settings) {
+  const fs::path folder = settings.outDir / "slurm";
+  std::error_code error;
+  fs::create_directories(folder, error);
+  if (error) return internalError("{}: cannot create: {}", folder.string(), error.message());
+  const SlurmScripts scripts = slurmScripts(settings);
+  APO_RETURN_IF_ERROR(writeFileAtomically(folder / "array.sbatch", scripts.array));
+  APO_RETURN_IF_ERROR(writeFileAtomically(folder / "merge.sbatch", scripts.merge));
+  SlurmJobs jobs;
+  auto array = submit({"sbatch", "--parsable", "--output=" + scripts.arrayLog.string(), (folder / "array.sbatch").string()});
+  if (!array) return array.error();
+  jobs.arrayJob = *array;
+  auto merge = submit({"sbatch", "--parsable", "--output=" + scripts.mergeLog.string(), "--dependency=afterany:" + jobs.arrayJob,
+                       (folder / "merge.sbatch").string()});
+  if (!merge) return merge.error();
+  jobs.mergeJob = *merge;
+  return jobs;
+}
+
+}  // namespace apo
