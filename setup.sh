@@ -21,6 +21,9 @@ PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev chromium chromium-driver clang libclang-rt-14-dev
   # the independent measuring scripts of ../shared/tools/ (benchmarks only)
   python3-numpy python3-scipy python3-open3d python3-pil
+  # the cluster test (tests/cluster/slurm_check.sh): a one-node Slurm
+  # cluster and its authentication; dpkg-dev's dpkg-shlibdeps for CPack's .deb
+  slurm-wlm munge dpkg-dev
   # dataset scripts (bunzip2 for the octomap scan)
   bzip2 xz-utils
 )

@@ -6,6 +6,8 @@
 #include "cli/config.h"
 #include "cli/stage_options.h"
 
+#include <algorithm>
+#include <cctype>
 #include <memory>
 
 namespace apo::cli {
@@ -80,6 +82,15 @@ void addBatchCommand(CLI::App& app, int& exitCode) {
 
 namespace {
 
+// A value written after "#SBATCH --option=": one word, else the line breaks
+// or carries another option.
+const CLI::Validator kOneWord(
+    [](const std::string& value) {
+      const bool blank = std::any_of(value.begin(), value.end(), [](unsigned char c) { return std::isspace(c) || c < 32; });
+      return blank || value.empty() ? std::string("must be one word, without spaces") : std::string();
+    },
+    "WORD");
+
 int runSlurmCommand(CLI::App& app, const SlurmCommand& command) {
   if (Status s = applyConfigFile(app, command.arguments.configFile); !s.ok()) return reportFailure(s.error());
   if (Status valid = validateRunOptions(runOptionsFrom(command.arguments)); !valid.ok()) return reportFailure(valid.error());
@@ -120,9 +131,9 @@ void addSlurmCommand(CLI::App& app, int& exitCode) {
   sub->add_option("--tasks", command->tasks, "Tasks of the job array, one shard of the scans each")
       ->check(CLI::Range(1, kMostShards))
       ->required();
-  sub->add_option("--partition", command->partition, "sbatch --partition (default: the cluster's)");
-  sub->add_option("--time", command->time, "sbatch --time per task, e.g. 2:00:00 (default: the partition's)");
-  sub->add_option("--mem", command->memory, "sbatch --mem per task, e.g. 8G (default: the partition's)");
+  sub->add_option("--partition", command->partition, "sbatch --partition (default: the cluster's)")->check(kOneWord);
+  sub->add_option("--time", command->time, "sbatch --time per task, e.g. 2:00:00 (default: the partition's)")->check(kOneWord);
+  sub->add_option("--mem", command->memory, "sbatch --mem per task, e.g. 8G (default: the partition's)")->check(kOneWord);
   sub->add_option("--cpus", command->cpus, "sbatch --cpus-per-task; each task's scans use that many threads")
       ->check(CLI::Range(1, 1024))
       ->capture_default_str();

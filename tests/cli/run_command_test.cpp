@@ -562,5 +562,98 @@ TEST(BatchCommand, ShardsThenMergeGiveTheBatchsOutputs) {
   EXPECT_EQ(failedRows, 2u);
 }
 
+// An executable bash script.
+fs::path writeProgram(const fs::path& path, const std::string& body) {
+  EXPECT_TRUE(writeFileAtomically(path, "#!/bin/bash\n" + body).ok());
+  fs::permissions(path, fs::perms::owner_all);
+  return path;
+}
+
+TEST(SlurmScripts, EachTaskRunsItsShardWithEveryPathAndOptionIntact) {
+  const fs::path dir = test::freshTempDir();
+  SlurmSettings settings;
+  settings.scanDir = dir / "scans of 'lab' $HOME";
+  settings.outDir = dir / "out `date`";
+  settings.tasks = 4;
+  settings.cpusPerTask = 3;
+  settings.partition = "long";
+  settings.time = "2:00:00";
+  // apo on the nodes, played by a script printing each argument on a line.
+  settings.executable = writeProgram(dir / "fake apo", "for a in \"$@\"; do echo \"[$a]\"; done\n");
+  settings.workerArguments = {"--faces", "300", "--config", "a b;'c'.toml"};
+  const SlurmScripts scripts = slurmScripts(settings);
+  EXPECT_THAT(scripts.array, HasSubstr("#SBATCH --array=0-3\n"));
+  EXPECT_THAT(scripts.array, HasSubstr("#SBATCH --requeue\n"));
+  EXPECT_THAT(scripts.array, HasSubstr("#SBATCH --cpus-per-task=3\n"));
+  EXPECT_THAT(scripts.array, HasSubstr("#SBATCH --partition=long\n"));
+  EXPECT_THAT(scripts.array, HasSubstr("#SBATCH --time=2:00:00\n"));
+  EXPECT_EQ(scripts.arrayLog, settings.outDir / "slurm" / "task-%a.log");
+  EXPECT_THAT(scripts.merge, HasSubstr("#SBATCH --cpus-per-task=1\n"));
+  EXPECT_THAT(scripts.merge, Not(HasSubstr("--array")));
+
+  // What Slurm runs: bash on each script, with the task's environment.
+  ASSERT_TRUE(writeFileAtomically(dir / "array.sbatch", scripts.array).ok());
+  ASSERT_TRUE(writeFileAtomically(dir / "merge.sbatch", scripts.merge).ok());
+  const auto task = test::runCommand(
+      fmt::format("SLURM_ARRAY_TASK_ID=2 SLURM_CPUS_PER_TASK=3 bash '{}'", (dir / "array.sbatch").string()));
+  ASSERT_EQ(task.exitCode, 0) << task.output;
+  EXPECT_EQ(task.output, fmt::format("[batch]\n[{}]\n[-o]\n[{}]\n[--shard]\n[2/4]\n[--jobs]\n[1]\n[--threads]\n[3]\n"
+                                     "[--faces]\n[300]\n[--config]\n[a b;'c'.toml]\n",
+                                     settings.scanDir.string(), settings.outDir.string()));
+  const auto merge = test::runCommand(fmt::format("bash '{}'", (dir / "merge.sbatch").string()));
+  EXPECT_EQ(merge.output,
+            fmt::format("[batch]\n[{}]\n[-o]\n[{}]\n[--merge]\n", settings.scanDir.string(), settings.outDir.string()));
+}
+
+TEST(SlurmCommand, SubmitsTheArrayThenTheMergeAfterItAndPrintsTheirIds) {
+  const fs::path dir = test::freshTempDir();
+  const fs::path scans = makeScanFolder(dir);
+  // sbatch, played by a script recording its arguments (call0, call1) and
+  // printing "JOBID;CLUSTER" as --parsable does: 41, then 42.
+  fs::create_directories(dir / "bin");
+  writeProgram(dir / "bin" / "sbatch", fmt::format("n=$(ls '{0}'/call* 2>/dev/null | wc -l)\n"
+                                                  "for a in \"$@\"; do echo \"$a\"; done > '{0}'/call$n\n"
+                                                  "echo \"$((41 + n));cluster\"\n",
+                                                  dir.string()));
+  const std::string path = fmt::format("PATH='{}':\"$PATH\"", (dir / "bin").string());
+  const auto result = test::runCommand(fmt::format("{} '{}' -q slurm '{}' -o '{}' --tasks 3 --faces 300", path,
+                                                   test::apoExecutable().string(), scans.string(), (dir / "out").string()));
+  ASSERT_EQ(result.exitCode, 0) << result.output;
+  EXPECT_THAT(result.output, HasSubstr("array job 41 (3 tasks), merge job 42;"));
+  const fs::path slurm = dir / "out" / "slurm";
+  EXPECT_EQ(fileBytes(dir / "call0"), fmt::format("--parsable\n--output={}\n{}\n", (slurm / "task-%a.log").string(),
+                                                  (slurm / "array.sbatch").string()));
+  EXPECT_EQ(fileBytes(dir / "call1"), fmt::format("--parsable\n--output={}\n--dependency=afterany:41\n{}\n",
+                                                  (slurm / "merge.log").string(), (slurm / "merge.sbatch").string()));
+  EXPECT_THAT(fileBytes(slurm / "array.sbatch"), HasSubstr("'--faces' '300'"));
+  EXPECT_FALSE(fs::exists(dir / "out" / "index.html"));  // nothing runs until Slurm does
+
+  // sbatch refusing: its own words, a non-zero exit, no merge submitted.
+  writeProgram(dir / "bin" / "sbatch", "echo 'sbatch: error: invalid partition specified: gpu' >&2\nexit 1\n");
+  const auto refused = test::runCommand(fmt::format("{} '{}' slurm '{}' -o '{}' --tasks 3 --partition gpu", path,
+                                                    test::apoExecutable().string(), scans.string(), (dir / "out2").string()));
+  EXPECT_NE(refused.exitCode, 0);
+  EXPECT_THAT(refused.output, HasSubstr("invalid partition specified: gpu"));
+  EXPECT_FALSE(fs::exists(dir / "call2"));
+}
+
+TEST(SlurmCommand, DryRunPrintsBothScriptsAndSubmitsNothing) {
+  const fs::path dir = test::freshTempDir();
+  const fs::path scans = makeScanFolder(dir);
+  const auto result = test::runCommand(fmt::format("PATH=/nonexistent '{}' slurm '{}' -o '{}' --tasks 5 --dry-run",
+                                                   test::apoExecutable().string(), scans.string(), (dir / "out").string()));
+  ASSERT_EQ(result.exitCode, 0) << result.output;
+  EXPECT_THAT(result.output, HasSubstr("#SBATCH --array=0-4"));
+  EXPECT_THAT(result.output, HasSubstr("--shard \"$SLURM_ARRAY_TASK_ID/5\""));
+  EXPECT_THAT(result.output, HasSubstr("--merge"));
+  EXPECT_FALSE(fs::exists(dir / "out" / "slurm"));
+
+  // A value that would break its #SBATCH line is refused before anything is written.
+  const auto twoWords = apo(fmt::format("slurm '{}' -o '{}' --tasks 2 --partition 'long --mem=1T' --dry-run",
+                                        scans.string(), (dir / "out").string()));
+  EXPECT_EQ(twoWords.exitCode, 1) << twoWords.output;
+  EXPECT_THAT(twoWords.output, HasSubstr("--partition"));
+}
+
 }  // namespace
 }  // namespace apo
