@@ -21,7 +21,9 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cerrno>
+#include <cstdlib>
 #include <cstring>
 #include <map>
 #include <thread>
@@ -120,35 +122,50 @@ Status checkOutputFolderIsOurs(const fs::path& folder) {
   return badInput("{}: a folder that apo did not write (no manifest.json); it is left alone", folder.string());
 }
 
-// Holds OUTDIR/.apo-batch.lock while the batch runs: two batches writing the
-// same folder would undo each other's work. The lock goes with the process.
+// Two batches writing the same scan folders would undo each other's work.
+// A whole batch holds OUTDIR/.apo-batch.lock exclusively; a shard holds it
+// shared (shards write disjoint scan folders, so they run together) and its
+// own .apo-batch-I-of-N.lock exclusively. The locks go with the process.
 class OutputLock {
  public:
-  // A shard locks its own share only: shards write disjoint scan folders.
   static Result<OutputLock> take(const fs::path& outDir, const std::optional<Shard>& shard) {
     std::error_code error;
     fs::create_directories(outDir, error);
     if (error) return internalError("{}: cannot create the output folder: {}", outDir.string(), error.message());
-    const fs::path lockPath =
-        shard ? outDir / fmt::format(".apo-batch-{}-of-{}.lock", shard->index, shard->count) : outDir / ".apo-batch.lock";
-    const int fd = open(lockPath.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
-    if (fd < 0) return internalError("{}: cannot open: {}", lockPath.string(), std::strerror(errno));
-    if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
-      close(fd);
+    OutputLock lock;
+    const std::string who = shard ? fmt::format(" (shard {}/{})", shard->index, shard->count) : "";
+    auto folderLock = lockFile(outDir / ".apo-batch.lock", shard ? LOCK_SH : LOCK_EX);
+    if (!folderLock) return folderLock.error();
+    lock.fds_[0] = *folderLock;
+    if (lock.fds_[0] < 0)
       return usageError("{}: another apo batch is writing to this folder{}", outDir.string(),
-                        shard ? fmt::format(" (shard {}/{})", shard->index, shard->count) : "");
+                        shard ? " without --shard" : " (a whole batch or shards of one)");
+    if (shard) {
+      auto shardLock = lockFile(outDir / fmt::format(".apo-batch-{}-of-{}.lock", shard->index, shard->count), LOCK_EX);
+      if (!shardLock) return shardLock.error();
+      lock.fds_[1] = *shardLock;
+      if (lock.fds_[1] < 0) return usageError("{}: another apo batch is writing to this folder{}", outDir.string(), who);
     }
-    return OutputLock(fd);
+    return lock;
   }
-  OutputLock(OutputLock&& other) noexcept : fd_(std::exchange(other.fd_, -1)) {}
+  OutputLock(OutputLock&& other) noexcept : fds_(std::exchange(other.fds_, {-1, -1})) {}
   OutputLock& operator=(OutputLock&&) = delete;
   ~OutputLock() {
-    if (fd_ >= 0) close(fd_);
+    for (int fd : fds_)
+      if (fd >= 0) close(fd);
   }
 
  private:
-  explicit OutputLock(int fd) : fd_(fd) {}
-  int fd_;
+  OutputLock() = default;
+  // The locked file's descriptor, or -1 when another process holds the lock.
+  static Result<int> lockFile(const fs::path& path, int mode) {
+    const int fd = open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    if (fd < 0) return internalError("{}: cannot open: {}", path.string(), std::strerror(errno));
+    if (flock(fd, mode | LOCK_NB) == 0) return fd;
+    close(fd);
+    return -1;
+  }
+  std::array<int, 2> fds_{-1, -1};
 };
 
 // The worker's command line: `apo run SCAN -o DIR --threads N` and the
@@ -301,24 +318,46 @@ std::vector<ScanJob> shareOf(std::vector<ScanJob> scans, const std::optional<Sha
   return scans;
 }
 
-// The shards' own summaries under OUTDIR/.apo-shards, by file name.
+// "I/N" -> N; 0 when unreadable.
+int shardCount(const Json& summary) {
+  const std::string shard = summary.value("shard", "");
+  const std::size_t slash = shard.find('/');
+  return slash == std::string::npos ? 0 : std::atoi(shard.c_str() + slash + 1);
+}
+
+// The shards' own summaries under OUTDIR/.apo-shards, by file name: those of
+// the latest partition only (the N of the newest summary), so that the shards
+// of an earlier run with another N are not counted twice; those left out are
+// named in the log.
 std::vector<Json> shardSummaries(const fs::path& outDir) {
-  std::vector<std::pair<std::string, Json>> found;
+  struct Found {
+    std::string name;
+    fs::file_time_type written;
+    Json summary;
+  };
+  std::vector<Found> found;
   std::error_code error;
   for (const fs::directory_entry& entry : fs::directory_iterator(outDir / kShardsFolder, error)) {
     if (entry.path().extension() != ".json") continue;
     auto text = readFileBytes(entry.path());
-    if (!text) continue;
-    Json summary = Json::parse(*text, nullptr, false);
-    if (summary.is_discarded() || !summary.is_object()) {
+    Json summary = text ? Json::parse(*text, nullptr, false) : Json();
+    if (summary.is_discarded() || !summary.is_object() || shardCount(summary) <= 0) {
       spdlog::warn("batch: {}: not a shard summary, left out", entry.path().string());
       continue;
     }
-    found.emplace_back(entry.path().filename().string(), std::move(summary));
+    found.push_back({entry.path().filename().string(), entry.last_write_time(error), std::move(summary)});
   }
-  std::sort(found.begin(), found.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  if (found.empty()) return {};
+  const auto newest = std::max_element(found.begin(), found.end(), [](const Found& a, const Found& b) { return a.written < b.written; });
+  const int count = shardCount(newest->summary);
+  std::sort(found.begin(), found.end(), [](const Found& a, const Found& b) { return a.name < b.name; });
   std::vector<Json> summaries;
-  for (auto& [name, summary] : found) summaries.push_back(std::move(summary));
+  for (Found& f : found) {
+    if (shardCount(f.summary) == count)
+      summaries.push_back(std::move(f.summary));
+    else
+      spdlog::warn("batch: {}: a shard of an earlier partition (the latest is {} shards), left out", f.name, count);
+  }
   return summaries;
 }
 

@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <chrono>
 #include <fstream>
 
 namespace apo {
@@ -487,6 +488,27 @@ TEST(BatchCommand, TwoBatchesCannotWriteTheSameFolder) {
   EXPECT_THAT(both.output, HasSubstr("another apo batch is writing to this folder"));
 }
 
+// The folder's lock held by util-linux flock(1) as each kind of batch holds it.
+TEST(BatchCommand, AWholeBatchAndShardsNeverWriteTogether) {
+  const fs::path dir = test::freshTempDir();
+  const fs::path scans = makeScanFolder(dir);
+  const fs::path out = dir / "out";
+  fs::create_directories(out);
+  const auto underLock = [&](const char* mode, const std::string& arguments) {
+    return test::runCommand(fmt::format("flock {} '{}' {} batch '{}' -o '{}' {} {}", mode, (out / ".apo-batch.lock").string(),
+                                        test::apoExecutable().string(), scans.string(), out.string(), kQuick, arguments));
+  };
+  const auto shardDuringWholeBatch = underLock("--exclusive", "--shard 0/2");
+  EXPECT_EQ(shardDuringWholeBatch.exitCode, 1);
+  EXPECT_THAT(shardDuringWholeBatch.output, HasSubstr("another apo batch is writing to this folder without --shard"));
+  const auto wholeBatchDuringShards = underLock("--shared", "");
+  EXPECT_EQ(wholeBatchDuringShards.exitCode, 1);
+  EXPECT_THAT(wholeBatchDuringShards.output, HasSubstr("another apo batch is writing to this folder"));
+  const auto shardBesideShards = underLock("--shared", "--shard 0/2");
+  EXPECT_THAT(shardBesideShards.output, Not(HasSubstr("another apo batch")));
+  EXPECT_TRUE(fs::exists(out / ".apo-shards" / "0-of-2.json"));
+}
+
 // A cluster's job array (docs/cluster.md): every scan in exactly one shard
 // for N = 1..16; a scan's shard is its own path's, so adding scans moves no
 // other; the shards are about even.
@@ -543,6 +565,10 @@ TEST(BatchCommand, ShardsThenMergeGiveTheBatchsOutputs) {
   EXPECT_THAT(both.output, Not(HasSubstr("another apo batch")));
   test::runCommand(shard + " 2/3");
   EXPECT_FALSE(fs::exists(out / "index.html"));  // the merge's
+  // A shard of an earlier run into the same folder, in 5 shards: not counted.
+  const fs::path stale = out / ".apo-shards" / "0-of-5.json";
+  ASSERT_TRUE(writeFileAtomically(stale, R"({"shard": "0/5", "scans": 9, "seconds": 100.0})").ok());
+  fs::last_write_time(stale, fs::last_write_time(out / ".apo-shards" / "0-of-3.json") - std::chrono::hours(1));
   const auto merged = apo(fmt::format("batch '{}' -o '{}' --merge", scans.string(), out.string()));
   EXPECT_EQ(merged.exitCode, 2) << merged.output;
   const nlohmann::json summary = readJson(out / "summary.json");
