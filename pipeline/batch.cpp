@@ -162,8 +162,10 @@ class OutputLock {
     const int fd = open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
     if (fd < 0) return internalError("{}: cannot open: {}", path.string(), std::strerror(errno));
     if (flock(fd, mode | LOCK_NB) == 0) return fd;
+    const int why = errno;
     close(fd);
-    return -1;
+    if (why == EWOULDBLOCK) return -1;
+    return internalError("{}: cannot lock: {}", path.string(), std::strerror(why));
   }
   std::array<int, 2> fds_{-1, -1};
 };
