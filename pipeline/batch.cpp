@@ -21,7 +21,6 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <array>
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
@@ -123,51 +122,72 @@ Status checkOutputFolderIsOurs(const fs::path& folder) {
 }
 
 // Two batches writing the same scan folders would undo each other's work.
-// A whole batch holds OUTDIR/.apo-batch.lock exclusively; a shard holds it
-// shared (shards write disjoint scan folders, so they run together) and its
-// own .apo-batch-I-of-N.lock exclusively. The locks go with the process.
+// A whole batch locks OUTDIR/.apo-batch.lock, a shard its own
+// OUTDIR/.apo-batch-I-of-N.lock (shards write disjoint scan folders, so no
+// lock is held by every shard: docs/cluster.md). Having taken its own, each
+// probes the other kind's and gives way if one is held; when both start at
+// once both may give way, never both run. The lock goes with the process.
 class OutputLock {
  public:
   static Result<OutputLock> take(const fs::path& outDir, const std::optional<Shard>& shard) {
     std::error_code error;
     fs::create_directories(outDir, error);
     if (error) return internalError("{}: cannot create the output folder: {}", outDir.string(), error.message());
-    OutputLock lock;
-    const std::string who = shard ? fmt::format(" (shard {}/{})", shard->index, shard->count) : "";
-    auto folderLock = lockFile(outDir / ".apo-batch.lock", shard ? LOCK_SH : LOCK_EX);
-    if (!folderLock) return folderLock.error();
-    lock.fds_[0] = *folderLock;
-    if (lock.fds_[0] < 0)
-      return usageError("{}: another apo batch is writing to this folder{}", outDir.string(),
-                        shard ? " without --shard" : " (a whole batch or shards of one)");
+    const fs::path own = shard ? outDir / fmt::format(".apo-batch-{}-of-{}.lock", shard->index, shard->count)
+                               : outDir / kWholeBatchLock;
+    const std::string busy = fmt::format("{}: another apo batch is writing to this folder", outDir.string());
+    const int fd = open(own.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    if (fd < 0) return internalError("{}: cannot open: {}", own.string(), std::strerror(errno));
+    OutputLock lock(fd);
+    auto taken = tryLock(fd, own, LOCK_EX);
+    if (!taken) return taken.error();
+    if (!*taken) return usageError("{}{}", busy, shard ? fmt::format(" (shard {}/{})", shard->index, shard->count) : "");
     if (shard) {
-      auto shardLock = lockFile(outDir / fmt::format(".apo-batch-{}-of-{}.lock", shard->index, shard->count), LOCK_EX);
-      if (!shardLock) return shardLock.error();
-      lock.fds_[1] = *shardLock;
-      if (lock.fds_[1] < 0) return usageError("{}: another apo batch is writing to this folder{}", outDir.string(), who);
+      // Shared: shards probing at the same moment do not see each other.
+      auto free = isFree(outDir / kWholeBatchLock, LOCK_SH);
+      if (!free) return free.error();
+      if (!*free) return usageError("{} without --shard", busy);
+      return lock;
+    }
+    for (const fs::directory_entry& entry : fs::directory_iterator(outDir, error)) {
+      const std::string name = entry.path().filename().string();
+      if (!name.starts_with(".apo-batch-") || !name.ends_with(".lock")) continue;
+      auto free = isFree(entry.path(), LOCK_EX);
+      if (!free) return free.error();
+      if (!*free) return usageError("{} (a shard: {})", busy, name);
     }
     return lock;
   }
-  OutputLock(OutputLock&& other) noexcept : fds_(std::exchange(other.fds_, {-1, -1})) {}
+  OutputLock(OutputLock&& other) noexcept : fd_(std::exchange(other.fd_, -1)) {}
   OutputLock& operator=(OutputLock&&) = delete;
   ~OutputLock() {
-    for (int fd : fds_)
-      if (fd >= 0) close(fd);
+    if (fd_ >= 0) close(fd_);
   }
 
  private:
-  OutputLock() = default;
-  // The locked file's descriptor, or -1 when another process holds the lock.
-  static Result<int> lockFile(const fs::path& path, int mode) {
-    const int fd = open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
-    if (fd < 0) return internalError("{}: cannot open: {}", path.string(), std::strerror(errno));
-    if (flock(fd, mode | LOCK_NB) == 0) return fd;
-    const int why = errno;
-    close(fd);
-    if (why == EWOULDBLOCK) return -1;
-    return internalError("{}: cannot lock: {}", path.string(), std::strerror(why));
+  static constexpr const char* kWholeBatchLock = ".apo-batch.lock";
+
+  explicit OutputLock(int fd) : fd_(fd) {}
+
+  // False when another process holds a conflicting lock.
+  static Result<bool> tryLock(int fd, const fs::path& path, int mode) {
+    if (flock(fd, mode | LOCK_NB) == 0) return true;
+    if (errno == EWOULDBLOCK) return false;
+    return internalError("{}: cannot lock: {}", path.string(), std::strerror(errno));
   }
-  std::array<int, 2> fds_{-1, -1};
+
+  // Whether nobody holds a lock on `path` that `mode` conflicts with (an
+  // absent file: nobody); the probe's own lock is released at once.
+  static Result<bool> isFree(const fs::path& path, int mode) {
+    const int fd = open(path.c_str(), O_RDWR | O_CLOEXEC);
+    if (fd < 0 && errno == ENOENT) return true;
+    if (fd < 0) return internalError("{}: cannot open: {}", path.string(), std::strerror(errno));
+    auto free = tryLock(fd, path, mode);
+    close(fd);
+    return free;
+  }
+
+  int fd_;
 };
 
 // The worker's command line: `apo run SCAN -o DIR --threads N` and the

@@ -488,30 +488,34 @@ TEST(BatchCommand, TwoBatchesCannotWriteTheSameFolder) {
   EXPECT_THAT(both.output, HasSubstr("another apo batch is writing to this folder"));
 }
 
-// The folder's lock held by util-linux flock(1) as each kind of batch holds it.
+// Each kind of batch's lock held by util-linux flock(1), as that batch holds it.
 TEST(BatchCommand, AWholeBatchAndShardsNeverWriteTogether) {
   const fs::path dir = test::freshTempDir();
   const fs::path scans = makeScanFolder(dir);
   const fs::path out = dir / "out";
   fs::create_directories(out);
-  const auto underLock = [&](const char* mode, const std::string& arguments) {
-    return test::runCommand(fmt::format("flock {} '{}' {} batch '{}' -o '{}' {} {}", mode, (out / ".apo-batch.lock").string(),
+  const auto underLock = [&](const char* lockName, const std::string& arguments) {
+    return test::runCommand(fmt::format("flock --exclusive '{}' {} batch '{}' -o '{}' {} {}", (out / lockName).string(),
                                         test::apoExecutable().string(), scans.string(), out.string(), kQuick, arguments));
   };
-  const auto shardDuringWholeBatch = underLock("--exclusive", "--shard 0/2");
+  const auto shardDuringWholeBatch = underLock(".apo-batch.lock", "--shard 0/2");
   EXPECT_EQ(shardDuringWholeBatch.exitCode, 1);
   EXPECT_THAT(shardDuringWholeBatch.output, HasSubstr("another apo batch is writing to this folder without --shard"));
-  const auto wholeBatchDuringShards = underLock("--shared", "");
-  EXPECT_EQ(wholeBatchDuringShards.exitCode, 1);
-  EXPECT_THAT(wholeBatchDuringShards.output, HasSubstr("another apo batch is writing to this folder"));
-  const auto shardBesideShards = underLock("--shared", "--shard 0/2");
-  EXPECT_THAT(shardBesideShards.output, Not(HasSubstr("another apo batch")));
+  const auto wholeBatchDuringAShard = underLock(".apo-batch-1-of-2.lock", "");
+  EXPECT_EQ(wholeBatchDuringAShard.exitCode, 1);
+  EXPECT_THAT(wholeBatchDuringAShard.output, HasSubstr("another apo batch is writing to this folder (a shard: .apo-batch-1-of-2.lock)"));
+  const auto sameShardTwice = underLock(".apo-batch-0-of-2.lock", "--shard 0/2");
+  EXPECT_EQ(sameShardTwice.exitCode, 1);
+  EXPECT_THAT(sameShardTwice.output, HasSubstr("(shard 0/2)"));
+  const auto shardBesideAnother = underLock(".apo-batch-1-of-2.lock", "--shard 0/2");
+  EXPECT_THAT(shardBesideAnother.output, Not(HasSubstr("another apo batch")));
   EXPECT_TRUE(fs::exists(out / ".apo-shards" / "0-of-2.json"));
+  // No shard running: the whole batch runs, though shards' lock files remain.
+  const auto wholeBatchAfterShards = apo(fmt::format("batch '{}' -o '{}' {}", scans.string(), out.string(), kQuick));
+  EXPECT_THAT(wholeBatchAfterShards.output, Not(HasSubstr("another apo batch")));
+  EXPECT_TRUE(fs::exists(out / "index.html"));
 }
 
-// A cluster's job array (docs/cluster.md): every scan in exactly one shard
-// for N = 1..16; a scan's shard is its own path's, so adding scans moves no
-// other; the shards are about even.
 TEST(Shard, EveryScanInExactlyOneShardAndAddingScansMovesNoOther) {
   std::vector<std::string> paths;
   for (int i = 0; i < 400; ++i) paths.push_back(fmt::format("lab {}/scan_{:03d}.ply", i % 7, i));
