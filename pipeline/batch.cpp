@@ -309,10 +309,9 @@ Json summaryJson(const BatchSummary& summary, const std::vector<NotProcessed>& o
           {"seconds", summary.seconds}};
 }
 
-// index.html and summary.json, from every scan's manifest, and the files
-// not processed with their reasons.
-Status writeBatchPages(const fs::path& outDir, const std::vector<ScanJob>& jobs, const std::vector<NotProcessed>& others,
-                       const Json& summary) {
+// index.html's rows: each scan's manifest (an empty object when it has
+// none), then the files not processed with their reasons.
+std::vector<BatchRow> batchRows(const std::vector<ScanJob>& jobs, const std::vector<NotProcessed>& others) {
   std::vector<BatchRow> rows;
   for (const ScanJob& job : jobs) {
     const std::optional<Json> found = manifest::read(job.outDir);
@@ -322,6 +321,10 @@ Status writeBatchPages(const fs::path& outDir, const std::vector<ScanJob>& jobs,
     rows.push_back({other.relative, {{"status", "not_processed"},
                                      {"input", {{"name", fs::path(other.relative).filename().string()}}},
                                      {"reason", other.reason}}});
+  return rows;
+}
+
+Status writeBatchPages(const fs::path& outDir, const std::vector<BatchRow>& rows, const Json& summary) {
   const nlohmann::json page = nlohmann::json::parse(summary.dump());
   APO_RETURN_IF_ERROR(writeFileAtomically(outDir / "index.html", batchIndexHtml(rows, page)));
   return writeFileAtomically(outDir / "summary.json", summary.dump(2) + "\n");
@@ -415,7 +418,7 @@ Result<BatchSummary> runBatch(const BatchSettings& settings) {
     fs::create_directories(path.parent_path(), error);
     APO_RETURN_IF_ERROR(writeFileAtomically(path, written.dump(2) + "\n"));
   } else {
-    APO_RETURN_IF_ERROR(writeBatchPages(settings.outDir, batch.jobs(), found->others, written));
+    APO_RETURN_IF_ERROR(writeBatchPages(settings.outDir, batchRows(batch.jobs(), found->others), written));
   }
   spdlog::info("batch{}: {} succeeded, {} failed, {} up to date, {} files not processed in {:.1f} s -> {}",
                settings.shard ? fmt::format(" shard {}/{}", settings.shard->index, settings.shard->count) : "",
@@ -428,13 +431,12 @@ Result<BatchSummary> runBatch(const BatchSettings& settings) {
 Result<BatchSummary> mergeBatch(const BatchSettings& settings) {
   auto found = scansOrError(settings);
   if (!found) return found.error();
+  const std::vector<BatchRow> rows = batchRows(found->scans, found->others);
   BatchSummary summary;
   summary.scans = found->scans.size();
   summary.notProcessed = found->others.size();
-  for (const ScanJob& job : found->scans) {
-    const std::optional<Json> written = manifest::read(job.outDir);
-    ++(written && written->value("status", "") == "succeeded" ? summary.succeeded : summary.failed);
-  }
+  for (std::size_t i = 0; i < found->scans.size(); ++i)
+    ++(rows[i].manifest.value("status", "") == "succeeded" ? summary.succeeded : summary.failed);
   Json shards = Json::array();
   for (const Json& shard : shardSummaries(settings.outDir)) {
     summary.seconds += shard.value("seconds", 0.0);
@@ -446,7 +448,7 @@ Result<BatchSummary> mergeBatch(const BatchSettings& settings) {
   Json written = summaryJson(summary, found->others);
   written["seconds_are"] = "the sum of the shards' wall times";
   written["shards"] = std::move(shards);
-  APO_RETURN_IF_ERROR(writeBatchPages(settings.outDir, found->scans, found->others, written));
+  APO_RETURN_IF_ERROR(writeBatchPages(settings.outDir, rows, written));
   spdlog::info("batch merge: {} scans, {} succeeded, {} failed, from {} shard summaries -> {}", summary.scans,
                summary.succeeded, summary.failed, written["shards"].size(), (settings.outDir / "index.html").string());
   return summary;

@@ -8,6 +8,9 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include <fcntl.h>
+#include <poll.h>
+#include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -22,13 +25,22 @@ namespace {
 // A word for bash, single-quoted: nothing in it is expanded.
 std::string bashWord(std::string_view word) {
   std::string out = "'";
-  for (char c : word) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return out + "'";
+  for (char c : word) {
+    if (c == '\'')
+      out += "'\\''";  // close the quotes, an escaped quote, reopen
+    else
+      out += c;
+  }
+  out += '\'';
+  return out;
 }
 
 std::string bashWords(const std::vector<std::string>& words) {
   std::string out;
-  for (const std::string& word : words) out += " " + bashWord(word);
+  for (const std::string& word : words) {
+    out += ' ';
+    out += bashWord(word);
+  }
   return out;
 }
 
@@ -42,40 +54,55 @@ std::string sbatchOptions(const SlurmSettings& s, std::string_view name) {
   return out;
 }
 
-// Runs `arguments` (no shell) and returns what it printed on stdout, or an
-// error with what it printed on stderr.
+// Runs `arguments` (no shell; the program found on PATH) and returns what it
+// printed on stdout, or an error with what it printed on stderr. posix_spawnp
+// leaves nothing to run between fork and exec; both pipes are read together,
+// so a long complaint on stderr cannot stall the child.
 Result<std::string> capture(const std::vector<std::string>& arguments) {
+  std::vector<char*> argv;
+  for (const std::string& a : arguments) argv.push_back(const_cast<char*>(a.c_str()));
+  argv.push_back(nullptr);
   std::array<int, 2> out{}, err{};
-  if (pipe(out.data()) != 0 || pipe(err.data()) != 0) return internalError("pipe: {}", std::strerror(errno));
-  const pid_t pid = fork();
-  if (pid < 0) return internalError("fork: {}", std::strerror(errno));
-  if (pid == 0) {
-    dup2(out[1], STDOUT_FILENO);
-    dup2(err[1], STDERR_FILENO);
+  if (pipe2(out.data(), O_CLOEXEC) != 0) return internalError("pipe: {}", std::strerror(errno));
+  if (pipe2(err.data(), O_CLOEXEC) != 0) {
     close(out[0]);
-    close(err[0]);
-    std::vector<char*> argv;
-    for (const std::string& a : arguments) argv.push_back(const_cast<char*>(a.c_str()));
-    argv.push_back(nullptr);
-    execvp(argv[0], argv.data());
-    std::fprintf(stderr, "cannot run %s: %s\n", argv[0], std::strerror(errno));
-    _exit(127);
+    close(out[1]);
+    return internalError("pipe: {}", std::strerror(errno));
   }
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_adddup2(&actions, out[1], STDOUT_FILENO);
+  posix_spawn_file_actions_adddup2(&actions, err[1], STDERR_FILENO);
+  pid_t pid = 0;
+  const int spawned = posix_spawnp(&pid, argv[0], &actions, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
   close(out[1]);
   close(err[1]);
-  const auto drain = [](int fd) {
-    std::string text;
-    std::array<char, 4096> buffer{};
-    for (ssize_t n; (n = read(fd, buffer.data(), buffer.size())) > 0;) text.append(buffer.data(), static_cast<std::size_t>(n));
-    close(fd);
-    return text;
-  };
-  const std::string printed = drain(out[0]), complaint = drain(err[0]);
+  std::array<std::string, 2> texts;  // stdout, stderr
+  std::array<pollfd, 2> open = {{{out[0], POLLIN, 0}, {err[0], POLLIN, 0}}};
+  while (spawned == 0 && (open[0].fd >= 0 || open[1].fd >= 0)) {
+    if (poll(open.data(), open.size(), -1) < 0 && errno != EINTR) break;
+    for (std::size_t i = 0; i < open.size(); ++i) {
+      if (open[i].fd < 0 || open[i].revents == 0) continue;
+      std::array<char, 4096> buffer{};
+      const ssize_t n = read(open[i].fd, buffer.data(), buffer.size());
+      if (n > 0) {
+        texts[i].append(buffer.data(), static_cast<std::size_t>(n));
+      } else if (n == 0 || errno != EINTR) {
+        close(open[i].fd);
+        open[i].fd = -1;
+      }
+    }
+  }
+  for (const pollfd& p : open)
+    if (p.fd >= 0) close(p.fd);
+  if (spawned != 0) return badInput("cannot run {}: {}", arguments.front(), std::strerror(spawned));
   int status = 0;
-  waitpid(pid, &status, 0);
+  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
   if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
-    return badInput("{} failed: {}", arguments.front(), complaint.empty() ? "no message" : complaint);
-  return printed;
+    return badInput("{} failed: {}", arguments.front(), texts[1].empty() ? "no message" : texts[1]);
+  return texts[0];
 }
 
 // `sbatch --parsable` prints "JOBID" or "JOBID;CLUSTER".
