@@ -201,6 +201,10 @@ class Run {
     choice["candidates"] = {{"mesh", candidate(*fromMesh, meshError)}, {"points", candidate(*fromPoints, pointsError)}};
     choice["probes_kept"] = (*probes)->positions.size();
     choice["margin"] = kPointsDetailMargin;
+    // The renders compare the APO with what it was baked from: the points
+    // kept, the scan's points are the reference, not a reconstruction the
+    // APO does not follow (docs/run.md, "Detail source").
+    if (points) data_.reference = &pointsOfScan();
     return points ? std::move(fromPoints) : std::move(fromMesh);
   }
 

@@ -139,7 +139,7 @@ TEST(RunCommand, TheDefaultDetailSourceKeepsTheScansDetailWhenMLosesIt) {
   }
   ASSERT_TRUE(writePly(dir / "points.ply", scan).ok());
   const std::string options = fmt::format("{} --max-points 1000", kQuick);
-  for (const char* source : {"auto", "mesh"}) {
+  for (const char* source : {"auto", "mesh", "points"}) {
     const auto result = apo(fmt::format("run '{}' -o '{}' {} --detail-source {}", (dir / "points.ply").string(),
                                         (dir / source).string(), options, source));
     ASSERT_EQ(result.exitCode, 0) << result.output;
@@ -160,6 +160,12 @@ TEST(RunCommand, TheDefaultDetailSourceKeepsTheScansDetailWhenMLosesIt) {
   EXPECT_EQ(fileBytes(dir / "auto" / "m.ply"), fileBytes(dir / "mesh" / "m.ply"));
   EXPECT_LT(apoErrorAgainstShape(dir / "auto", shape), 0.8 * apoErrorAgainstShape(dir / "mesh", shape));
   EXPECT_THAT(fileBytes(dir / "auto" / "report.html"), HasSubstr("the APO baked from the points is closer"));
+  // The renders compare the APO with what it was baked from: auto, having
+  // kept the points' APO, draws the points as the reference, exactly as
+  // --detail-source points does, and not M.
+  const fs::path reference = fs::path("render") / "view00_reference_normals.pfm";
+  EXPECT_EQ(fileBytes(dir / "auto" / reference), fileBytes(dir / "points" / reference));
+  EXPECT_NE(fileBytes(dir / "auto" / reference), fileBytes(dir / "mesh" / reference));
 
   const fs::path mesh = writeMeshScan(dir / "sphere.ply");
   ASSERT_EQ(apo(fmt::format("run '{}' -o '{}' {}", mesh.string(), (dir / "sphere").string(), kQuick)).exitCode, 0);
