@@ -4,6 +4,7 @@
 #include "adapters/flann/flann_search.h"
 #include "core/timing.h"
 
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
 #include <memory>
@@ -31,8 +32,11 @@ Result<DetailSearch> detailSearch(const Scan& M, DetailSurface& surface) {
     if (!closest) return closest.error();
     return DetailSearch{std::move(caster).value(), std::move(closest).value()};
   }
+  const Stopwatch radii;
   auto points = makeFlannPointsSearch(M.points);
   if (!points) return points.error();
+  spdlog::info("bake: disc radii of {} points (FLANN k-d tree, 6 nearest of each) in {:.2f} s", M.points.size(),
+               radii.seconds());
   for (const float r : points->radii) surface.pointAreas.push_back(r * r);
   auto caster = makeEmbreeDiscCaster(M.points, points->radii);
   if (!caster) return caster.error();
@@ -66,8 +70,10 @@ Result<Bake> bakeApo(const Scan& detail, const Scan& coarse, const BakeOptions& 
   surface.caster = search->caster.get();
   surface.closest = search->closest.get();
   const double setupSeconds = setup.seconds();
-  spdlog::info("bake: Embree BVH over {} {} in {:.2f} s", M.isMesh() ? M.triangles.size() : M.points.size(),
-               M.isMesh() ? "triangles" : "points", setupSeconds);
+  spdlog::info("bake: M's search structures ({}) ready in {:.2f} s",
+               M.isMesh() ? fmt::format("Embree BVH over {} triangles", M.triangles.size())
+                          : fmt::format("disc radii and Embree BVH over {} discs", M.points.size()),
+               setupSeconds);
 
   auto bake = bakeWith(surface, {&coarse, coarseCaster->get()}, options, onProgress);
   if (!bake) return bake;
