@@ -262,6 +262,8 @@ class Run {
     std::vector<Camera>& cameras = data_.cameras;
     for (const ViewImages& view : *views) cameras.push_back(view.camera);
     manifest_["results"]["render"] = Json::parse(renderReportJson(figures, settings_.options.render, cameras));
+    // What the views drew as the reference: what the kept APO was baked from.
+    manifest_["results"]["render"]["reference"] = data_.reference == &data_.dense ? "M" : "points";
     // A point scan's M is a reconstruction: the asset is judged against the
     // scan's own points too (docs/render.md, "Against the scan").
     manifest_["results"]["render"]["against_scan"] = nullptr;

@@ -506,6 +506,15 @@ std::string scanVerdict(const Json* scan) {
          beside(*coarse / *apo, *coarse) + "</p>\n";
 }
 
+// The renders' reference: the scan's points when the APO was baked from
+// them (results.render.reference), else M (manifests before 2026-12-04 say
+// nothing: theirs was M unless --detail-source points).
+bool referenceIsPoints(const Json* render) { return textAt(render, {"reference"}) == "points"; }
+
+std::string referenceName(const Json* render) {
+  return referenceIsPoints(render) ? "the scan's points" : "the dense mesh M";
+}
+
 std::string verdict(const Json& manifest) {
   const Json* render = results(manifest, "render");
   const Json* bake = results(manifest, "bake");
@@ -518,14 +527,15 @@ std::string verdict(const Json& manifest) {
             (stageStatus(manifest, "render") == "failed" ? "the render stage failed." : "not run (the render stage did not run).") +
             "</p>\n";
   } else if (pixels && *pixels == 0.0) {
-    html += "<p>No angular figures: the render had no reference M to compare with.</p>\n";
+    html += "<p>No angular figures: the render had no reference to compare with.</p>\n";
   } else if (apoMean && baselineMean) {
     html += scanVerdict(child(render, "against_scan"));
     html += scanViewsVerdict(viewMeans(render, child(render, "views")));
-    html += fmt::format("<p>APO normals are <b>{}</b> from the dense mesh M on average", degrees(apoMean, 1));
+    html += fmt::format("<p>APO normals are <b>{}</b> from {} on average", degrees(apoMean, 1), referenceName(render));
     if (*apoMean > 0.0) {
       html += beside(numberAt(render, {"overall", "baseline_over_apo"}).value_or(*baselineMean / *apoMean), *baselineMean);
-      if (textAt(at(bake, {"detail_source"}), {"chosen"}) == "points" && child(render, "against_scan") != nullptr)
+      if (textAt(at(bake, {"detail_source"}), {"chosen"}) == "points" && !referenceIsPoints(render) &&
+          child(render, "against_scan") != nullptr)
         html += " The APO was baked from the scan's points, which M smooths: against M it also carries M's distance "
                 "from the scan.";
     } else {
@@ -597,9 +607,11 @@ std::string viewsSection(const Json& manifest) {
   const int size = sizeOption && *sizeOption >= 1.0 && *sizeOption <= 16384.0 ? static_cast<int>(*sizeOption) : 512;
   const std::string folder = rendersFolder(manifest);
 
-  html += "<p>Each row: the dense mesh M (reference), the coarse mesh m with its own normals (baseline), m with the "
-          "APO, and the APO's angular error against M per pixel.</p>\n";
-  html += "<div class=\"legend\"><span>heat map: angular error of m with the APO against M</span>" + heatMapLegend() +
+  html += "<p>Each row: " + referenceName(render) +
+          " (reference), the coarse mesh m with its own normals (baseline), m with the APO, and the APO's angular "
+          "error against the reference per pixel.</p>\n";
+  html += "<div class=\"legend\"><span>heat map: angular error of m with the APO against the reference</span>" +
+          heatMapLegend() +
           "<span>(10&deg;+: 10 degrees or more; transparent: pixel not covered by both)</span></div>\n";
   const std::vector<ViewMeans> means = viewMeans(render, views);
   for (std::size_t i = 0; i < views->size(); ++i) {
@@ -616,7 +628,7 @@ std::string viewsSection(const Json& manifest) {
                         label ? " (" + htmlEscape(*label) + side + ")" : std::string());
     if (means[i].apoScan)
       html += "mean angular error against the scan's points seen: " + meansText(means[i].apoScan, means[i].baselineScan) +
-              " &middot; against M: ";
+              (referenceIsPoints(render) ? " &middot; rendered against them: " : " &middot; against M: ");
     else
       html += "mean angular error: ";
     html += meansText(means[i].apo, means[i].baseline);
@@ -625,10 +637,11 @@ std::string viewsSection(const Json& manifest) {
                         fixed(numberAt(&view, {"baseline", "image", "mean_absolute_error"}), 2));
     html += "</p>\n<div class=\"quad\">\n";
     const std::string title = "View " + nn + ": ";
+    const std::string reference = referenceIsPoints(render) ? "reference: the scan's points" : "reference M";
     if (hasReference)
-      html += imageCell(prefix + "reference.png", title + "reference M", "reference M", size);
+      html += imageCell(prefix + "reference.png", title + reference, reference, size);
     else
-      html += missingImageCell("reference M", "no reference");
+      html += missingImageCell("reference", "no reference");
     html += imageCell(prefix + "baseline.png", title + "baseline m", "baseline: m alone", size);
     html += imageCell(prefix + "apo.png", title + "m with APO", "m with APO", size);
     if (hasReference)
@@ -705,11 +718,13 @@ std::string againstScanTable(const Json* scan) {
   return html + "</tbody>\n</table>\n";
 }
 
-// Auto baked the APO from the points but the renders' reference is M: the
-// figures above measure M's distance from the scan as much as the APO's.
+// Auto baked the APO from the points but the renders' reference was M (runs
+// before 2026-12-04): the figures above measure M's distance from the scan
+// as much as the APO's.
 std::string bakedFromPointsNote(const Json& manifest) {
   const Json* choice = at(results(manifest, "bake"), {"detail_source"});
   if (textAt(choice, {"option"}) != "auto" || textAt(choice, {"chosen"}) != "points") return "";
+  if (referenceIsPoints(results(manifest, "render"))) return "";
   return "<p class=\"meta\">The APO was baked from the scan's points, which it follows closer than M does (Bake "
          "section); these figures compare it with M, so they include M's own distance from the scan. The figures "
          "against the scan judge it.</p>\n";
@@ -952,7 +967,7 @@ std::string renderCostSection(const Json& manifest) {
   const std::optional<std::string> layout = textAt(render, {"layout", "name"});
   if (layout && *layout == "n3tree")
     html += row("octree drawn as", "GPU Gems 2's N^3-tree, N = " + count(numberAt(render, {"layout", "n"})) + " (scan.n3t)");
-  html += row("frame, reference M", fixed(numberAt(cost, {"reference_frame_ms"}), 2) + " ms");
+  html += row("frame, reference", fixed(numberAt(cost, {"reference_frame_ms"}), 2) + " ms");
   // M as points goes through the point LOD: what it sent and drew.
   const std::optional<double> sent = numberAt(cost, {"reference_primitives", "sent"});
   if (sent)

@@ -163,6 +163,8 @@ TEST(RunCommand, TheDefaultDetailSourceKeepsTheScansDetailWhenMLosesIt) {
   // The renders compare the APO with what it was baked from: auto, having
   // kept the points' APO, draws the points as the reference, exactly as
   // --detail-source points does, and not M.
+  EXPECT_EQ(manifest["results"]["render"]["reference"], "points");
+  EXPECT_EQ(readJson(dir / "mesh" / "manifest.json")["results"]["render"]["reference"], "M");
   const fs::path reference = fs::path("render") / "view00_reference_normals.pfm";
   EXPECT_EQ(fileBytes(dir / "auto" / reference), fileBytes(dir / "points" / reference));
   EXPECT_NE(fileBytes(dir / "auto" / reference), fileBytes(dir / "mesh" / reference));

@@ -260,6 +260,17 @@ TEST(ReportHtml, SaysWhatTheApoWasBakedFromAndWhy) {
   EXPECT_THAT(html, Not(HasSubstr("which M smooths")));
   m["results"]["render"]["against_scan"] = {{"m", {{"mean", 3.1}}}, {"apo_filtered", {{"mean", 2.5}}}};
   EXPECT_THAT(qaReportHtml(m), HasSubstr("The APO was baked from the scan's points, which M smooths"));
+  // Since 2026-12-04 the renders draw the points the APO was baked from
+  // (results.render.reference): the report names them, and the notes about
+  // M's distance from the scan have no place.
+  m["results"]["render"]["reference"] = "points";
+  const std::string againstPoints = qaReportHtml(m);
+  EXPECT_THAT(againstPoints, HasSubstr("from the scan's points on average"));
+  EXPECT_THAT(againstPoints, HasSubstr("Each row: the scan's points (reference)"));
+  EXPECT_THAT(againstPoints, Not(HasSubstr("which M smooths")));
+  EXPECT_THAT(againstPoints, Not(HasSubstr("these figures compare it with M")));
+  m["results"]["render"]["reference"] = "M";
+  EXPECT_THAT(qaReportHtml(m), HasSubstr("from the dense mesh M on average"));
   m["results"]["bake"]["detail_source"] = {{"option", "auto"}, {"chosen", "mesh"}, {"reason", "the scan is a mesh"}};
   EXPECT_THAT(qaReportHtml(m), Not(HasSubstr("these figures compare it with M")));
   EXPECT_THAT(qaReportHtml(m), HasSubstr("<td>baked from</td><td class=\"n\">mesh (auto: the scan is a mesh)</td>"));
