@@ -154,8 +154,9 @@ SphereCase bumpySphereCase() {
   return c;
 }
 
-Cell cellOfNode(const Octree& octree, std::uint32_t target) {
-  // Walks from the root: nodes are reached through their parents' broods.
+// Every node's cell, walking from the root: nodes are reached through their
+// parents' broods.
+std::vector<Cell> cellsOf(const Octree& octree) {
   std::vector<Cell> cells(octree.nodes.size());
   for (std::uint32_t n = 0; n < octree.nodes.size(); ++n) {
     const OctreeNode& node = octree.nodes[n];
@@ -163,8 +164,10 @@ Cell cellOfNode(const Octree& octree, std::uint32_t target) {
     for (int c = 0; c < 8; ++c)
       if (node.childMask & (1u << c)) cells[child++] = cells[n].child(c);
   }
-  return cells[target];
+  return cells;
 }
+
+Cell cellOfNode(const Octree& octree, std::uint32_t target) { return cellsOf(octree)[target]; }
 
 TEST(BuildOctree, LeavesHoldExactlyTheTrianglesOfMThatOverlapThem) {
   const SphereCase c = bumpySphereCase();
@@ -249,14 +252,10 @@ std::uint64_t texelsOfTree(const Octree& octree, int completeDepth) {
 // The total L2,1 of the leaves, each recomputed from all of M's triangles
 // that overlap the leaf's cell (brute force, not the build's lists).
 double totalLeafError(const SphereCase& c, const Octree& octree) {
-  std::vector<Cell> cells(octree.nodes.size());
+  const std::vector<Cell> cells = cellsOf(octree);
   double total = 0.0;
   for (std::uint32_t n = 0; n < octree.nodes.size(); ++n) {
-    const OctreeNode& node = octree.nodes[n];
-    std::uint32_t child = node.firstChild;
-    for (int k = 0; k < 8; ++k)
-      if (node.childMask & (1u << k)) cells[child++] = cells[n].child(k);
-    if (!node.isLeaf()) continue;
+    if (!octree.nodes[n].isLeaf()) continue;
     std::vector<std::uint32_t> overlapping;
     for (std::uint32_t t = 0; t < c.detail.triangles.size(); ++t) {
       const auto& corners = c.detail.triangles[t].corners;
@@ -346,15 +345,11 @@ TEST(BuildOctreeWithABudget, PointsReportTheLeavesErrorAndEachPointOnce) {
   points.coarseKnown = true;
   const BuiltOctree built = buildOctree(c.coarse, points, budgetSettings(8000));
   const Octree& octree = built.octree;
-  std::vector<Cell> cells(octree.nodes.size());
+  const std::vector<Cell> cells = cellsOf(octree);
   std::vector<int> leavesHolding(points.positions.size(), 0);
   double error = 0.0, weights = 0.0;
   for (std::uint32_t n = 0; n < octree.nodes.size(); ++n) {
-    const OctreeNode& node = octree.nodes[n];
-    std::uint32_t child = node.firstChild;
-    for (int k = 0; k < 8; ++k)
-      if (node.childMask & (1u << k)) cells[child++] = cells[n].child(k);
-    if (!node.isLeaf()) continue;
+    if (!octree.nodes[n].isLeaf()) continue;
     std::vector<std::uint32_t> inside;
     for (std::uint32_t i = 0; i < points.positions.size(); ++i) {
       // A point on a face between two cells is the lower one's (as the
