@@ -8,6 +8,7 @@
 
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
+#include <tbb/scalable_allocator.h>
 
 #include <algorithm>
 #include <array>
@@ -17,11 +18,18 @@
 #include <limits>
 #include <numbers>
 #include <optional>
+#include <span>
 #include <tuple>
 #include <utility>
 
 namespace apo::octree {
 namespace {
+
+// A leaf's lists of m's and M's triangles. Hundreds of thousands are made on
+// the evaluating threads and freed on the main one; glibc's allocator spent
+// a tenth of the 1.2M-triangle build freeing them (docs/benchmarks.md, "A
+// faster build"), TBB's scalable allocator keeps per-thread free lists.
+using IdList = std::vector<std::uint32_t, tbb::scalable_allocator<std::uint32_t>>;
 
 // ---- Geometry -------------------------------------------------------------
 
@@ -336,7 +344,7 @@ void addWeightedNormal(float weight, const Vec3f& normalOfM, const Vec3f* normal
   sums.coarse += w * (normal - coarse).squaredNorm();
 }
 
-LeafError errorInCell(const DetailPrimitives& detail, const std::vector<std::uint32_t>& primitives, const Cell& cell,
+LeafError errorInCell(const DetailPrimitives& detail, std::span<const std::uint32_t> primitives, const Cell& cell,
                       bool deferToCoarse, bool twoSides) {
   VariationSums sums;
   const bool withCoarse = detail.coarseKnown;
@@ -375,9 +383,9 @@ bool insideOneChild(const Cell& cell, const Bounds& bounds) {
 
 // Splits a primitive list among the eight children of `cell`.
 template <class BoundsOf, class Overlaps>
-std::array<std::vector<std::uint32_t>, 8> distribute(const std::vector<std::uint32_t>& primitives, const Cell& cell,
+std::array<IdList, 8> distribute(const IdList& primitives, const Cell& cell,
                                                      BoundsOf boundsOf, Overlaps overlaps, std::uint8_t onlyMask) {
-  std::array<std::vector<std::uint32_t>, 8> children;
+  std::array<IdList, 8> children;
   for (const std::uint32_t p : primitives) {
     const Bounds bounds = boundsOf(p);
     const bool sure = insideOneChild(cell, bounds);
@@ -571,8 +579,8 @@ class PointOrder {
 struct Leaf {
   std::uint32_t node = 0;
   Cell cell;
-  std::vector<std::uint32_t> triangles;   // m's
-  std::vector<std::uint32_t> primitives;  // M's triangles (M a mesh)
+  IdList triangles;   // m's
+  IdList primitives;  // M's triangles (M a mesh)
   PointOrder::Run points;                 // M's points (M points)
   LeafError error;
   // Children its split would keep (those holding some of m): counted when
@@ -664,7 +672,7 @@ class Refinement {
       candidate.gain = leaf.error.ranked() - childError;
       // M's primitives are needed by the error metric only (the rays are
       // cast against all of M): a leaf that splits keeps none.
-      std::vector<std::uint32_t>().swap(leaf.primitives);
+      IdList().swap(leaf.primitives);
     }
     candidate.leaf = std::move(leaf);
     return candidate;
@@ -689,7 +697,7 @@ class Refinement {
 
  private:
   // m's triangles in each child of the leaf's cell.
-  std::array<std::vector<std::uint32_t>, 8> coarseInChildren(const Leaf& leaf) const {
+  std::array<IdList, 8> coarseInChildren(const Leaf& leaf) const {
     return distribute(
         leaf.triangles, leaf.cell, [&](std::uint32_t t) { return coarseBounds(coarse_, t); },
         [&](std::uint32_t t, const Cell& child) { return coarseOverlaps(coarse_, t, child); }, 0xFF);
@@ -701,7 +709,7 @@ class Refinement {
 
   // M's primitives in each kept child and the child's error.
   struct ChildErrors {
-    std::array<std::vector<std::uint32_t>, 8> primitives;
+    std::array<IdList, 8> primitives;
     std::array<PointOrder::Run, 8> points;
     std::array<LeafError, 8> errors;
   };
@@ -727,7 +735,7 @@ class Refinement {
     ChildErrors out;
     std::array<VariationSums, 8> sums;
     const Cell& cell = leaf.cell;
-    const std::vector<std::uint32_t>& primitives = leaf.primitives;
+    const IdList& primitives = leaf.primitives;
     for (std::size_t k = 0; k < primitives.size(); ++k) {
       // The records are read through the leaf's list: fetched ahead, their
       // cache misses overlap the clipping of the triangles before them.
@@ -840,7 +848,7 @@ std::vector<std::uint32_t> buildUpperLevels(const std::vector<GridKey>& occupied
 // Groups sorted (key, primitive) pairs by key.
 struct Groups {
   std::vector<GridKey> keys;
-  std::vector<std::vector<std::uint32_t>> members;
+  std::vector<IdList> members;
 };
 
 Groups groupByKey(const std::vector<std::pair<GridKey, std::uint32_t>>& pairs) {
