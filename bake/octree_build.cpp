@@ -383,8 +383,8 @@ bool insideOneChild(const Cell& cell, const Bounds& bounds) {
 
 // Splits a primitive list among the eight children of `cell`.
 template <class BoundsOf, class Overlaps>
-std::array<IdList, 8> distribute(const IdList& primitives, const Cell& cell,
-                                                     BoundsOf boundsOf, Overlaps overlaps, std::uint8_t onlyMask) {
+std::array<IdList, 8> distribute(const IdList& primitives, const Cell& cell, BoundsOf boundsOf, Overlaps overlaps,
+                                 std::uint8_t onlyMask) {
   std::array<IdList, 8> children;
   for (const std::uint32_t p : primitives) {
     const Bounds bounds = boundsOf(p);
@@ -579,9 +579,9 @@ class PointOrder {
 struct Leaf {
   std::uint32_t node = 0;
   Cell cell;
-  IdList triangles;   // m's
-  IdList primitives;  // M's triangles (M a mesh)
-  PointOrder::Run points;                 // M's points (M points)
+  IdList triangles;        // m's
+  IdList primitives;       // M's triangles (M a mesh)
+  PointOrder::Run points;  // M's points (M points)
   LeafError error;
   // Children its split would keep (those holding some of m): counted when
   // the leaf is made, as it is cheap (m's few triangles), to bound the

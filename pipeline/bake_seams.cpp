@@ -35,7 +35,7 @@ Result<DetailSearch> detailSearch(const Scan& M, DetailSurface& surface) {
   const Stopwatch radii;
   auto points = makeFlannPointsSearch(M.points);
   if (!points) return points.error();
-  spdlog::info("bake: disc radii of {} points (FLANN k-d tree, 6 nearest of each) in {:.2f} s", M.points.size(),
+  spdlog::info("bake: disc radii of {} points (FLANN k-d tree, nearest neighbours) in {:.2f} s", M.points.size(),
                radii.seconds());
   for (const float r : points->radii) surface.pointAreas.push_back(r * r);
   auto caster = makeEmbreeDiscCaster(M.points, points->radii);

@@ -201,10 +201,6 @@ class Run {
     choice["candidates"] = {{"mesh", candidate(*fromMesh, meshError)}, {"points", candidate(*fromPoints, pointsError)}};
     choice["probes_kept"] = (*probes)->positions.size();
     choice["margin"] = kPointsDetailMargin;
-    // The renders compare the APO with what it was baked from: the points
-    // kept, the scan's points are the reference, not a reconstruction the
-    // APO does not follow (docs/run.md, "Detail source").
-    if (points) data_.reference = &pointsOfScan();
     return points ? std::move(fromPoints) : std::move(fromMesh);
   }
 
@@ -216,10 +212,8 @@ class Run {
     if (option == DetailSource::Points) {
       choice["chosen"] = "points";
       choice["reason"] = "--detail-source points";
-      data_.reference = &pointsOfScan();
-      return bakeFrom(*data_.reference, 0.0, 1.0);
+      return bakeFrom(pointsOfScan(), 0.0, 1.0);
     }
-    data_.reference = &data_.dense;
     if (option == DetailSource::Auto && judgedAgainstScan()) return bakeCloserToScan(choice);
     choice["chosen"] = "mesh";
     choice["reason"] = option == DetailSource::Mesh ? "--detail-source mesh"
@@ -232,6 +226,10 @@ class Run {
     Json choice;
     auto baked = bakeChosen(choice);
     if (!baked) return baked.error();
+    // The renders compare the APO with what it was baked from: the scan's
+    // points when those were kept, not a reconstruction the APO does not
+    // follow (docs/run.md, "Detail source").
+    data_.reference = choice["chosen"] == "points" ? &pointsOfScan() : &data_.dense;
     data_.texture = std::move(baked->texture);
     data_.n3tree = std::move(baked->n3tree);
     if (data_.n3tree) {

@@ -507,12 +507,16 @@ std::string scanVerdict(const Json* scan) {
 }
 
 // The renders' reference: the scan's points when the APO was baked from
-// them (results.render.reference), else M (manifests before 2026-12-04 say
-// nothing: theirs was M unless --detail-source points).
-bool referenceIsPoints(const Json* render) { return textAt(render, {"reference"}) == "points"; }
+// them (results.render.reference), else M. Manifests before 2026-12-04 do
+// not say: theirs was the points only with --detail-source points.
+bool referenceIsPoints(const Json& manifest) {
+  if (const std::optional<std::string> reference = textAt(results(manifest, "render"), {"reference"}))
+    return *reference == "points";
+  return textAt(&manifest, {"options", "detail-source"}) == "points";
+}
 
-std::string referenceName(const Json* render) {
-  return referenceIsPoints(render) ? "the scan's points" : "the dense mesh M";
+std::string referenceName(const Json& manifest) {
+  return referenceIsPoints(manifest) ? "the scan's points" : "the dense mesh M";
 }
 
 std::string verdict(const Json& manifest) {
@@ -531,10 +535,10 @@ std::string verdict(const Json& manifest) {
   } else if (apoMean && baselineMean) {
     html += scanVerdict(child(render, "against_scan"));
     html += scanViewsVerdict(viewMeans(render, child(render, "views")));
-    html += fmt::format("<p>APO normals are <b>{}</b> from {} on average", degrees(apoMean, 1), referenceName(render));
+    html += fmt::format("<p>APO normals are <b>{}</b> from {} on average", degrees(apoMean, 1), referenceName(manifest));
     if (*apoMean > 0.0) {
       html += beside(numberAt(render, {"overall", "baseline_over_apo"}).value_or(*baselineMean / *apoMean), *baselineMean);
-      if (textAt(at(bake, {"detail_source"}), {"chosen"}) == "points" && !referenceIsPoints(render) &&
+      if (textAt(at(bake, {"detail_source"}), {"chosen"}) == "points" && !referenceIsPoints(manifest) &&
           child(render, "against_scan") != nullptr)
         html += " The APO was baked from the scan's points, which M smooths: against M it also carries M's distance "
                 "from the scan.";
@@ -607,7 +611,7 @@ std::string viewsSection(const Json& manifest) {
   const int size = sizeOption && *sizeOption >= 1.0 && *sizeOption <= 16384.0 ? static_cast<int>(*sizeOption) : 512;
   const std::string folder = rendersFolder(manifest);
 
-  html += "<p>Each row: " + referenceName(render) +
+  html += "<p>Each row: " + referenceName(manifest) +
           " (reference), the coarse mesh m with its own normals (baseline), m with the APO, and the APO's angular "
           "error against the reference per pixel.</p>\n";
   html += "<div class=\"legend\"><span>heat map: angular error of m with the APO against the reference</span>" +
@@ -628,7 +632,7 @@ std::string viewsSection(const Json& manifest) {
                         label ? " (" + htmlEscape(*label) + side + ")" : std::string());
     if (means[i].apoScan)
       html += "mean angular error against the scan's points seen: " + meansText(means[i].apoScan, means[i].baselineScan) +
-              (referenceIsPoints(render) ? " &middot; rendered against them: " : " &middot; against M: ");
+              (referenceIsPoints(manifest) ? " &middot; rendered against them: " : " &middot; against M: ");
     else
       html += "mean angular error: ";
     html += meansText(means[i].apo, means[i].baseline);
@@ -637,7 +641,7 @@ std::string viewsSection(const Json& manifest) {
                         fixed(numberAt(&view, {"baseline", "image", "mean_absolute_error"}), 2));
     html += "</p>\n<div class=\"quad\">\n";
     const std::string title = "View " + nn + ": ";
-    const std::string reference = referenceIsPoints(render) ? "reference: the scan's points" : "reference M";
+    const std::string reference = referenceIsPoints(manifest) ? "reference: the scan's points" : "reference M";
     if (hasReference)
       html += imageCell(prefix + "reference.png", title + reference, reference, size);
     else
@@ -724,7 +728,7 @@ std::string againstScanTable(const Json* scan) {
 std::string bakedFromPointsNote(const Json& manifest) {
   const Json* choice = at(results(manifest, "bake"), {"detail_source"});
   if (textAt(choice, {"option"}) != "auto" || textAt(choice, {"chosen"}) != "points") return "";
-  if (referenceIsPoints(results(manifest, "render"))) return "";
+  if (referenceIsPoints(manifest)) return "";
   return "<p class=\"meta\">The APO was baked from the scan's points, which it follows closer than M does (Bake "
          "section); these figures compare it with M, so they include M's own distance from the scan. The figures "
          "against the scan judge it.</p>\n";

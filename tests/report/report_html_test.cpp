@@ -271,6 +271,13 @@ TEST(ReportHtml, SaysWhatTheApoWasBakedFromAndWhy) {
   EXPECT_THAT(againstPoints, Not(HasSubstr("these figures compare it with M")));
   m["results"]["render"]["reference"] = "M";
   EXPECT_THAT(qaReportHtml(m), HasSubstr("from the dense mesh M on average"));
+  // A manifest from before results.render.reference: the points were the
+  // reference only with --detail-source points.
+  m["results"]["render"].erase("reference");
+  EXPECT_THAT(qaReportHtml(m), HasSubstr("from the dense mesh M on average"));
+  Json explicitPoints = m;
+  explicitPoints["options"]["detail-source"] = "points";
+  EXPECT_THAT(qaReportHtml(explicitPoints), HasSubstr("from the scan's points on average"));
   m["results"]["bake"]["detail_source"] = {{"option", "auto"}, {"chosen", "mesh"}, {"reason", "the scan is a mesh"}};
   EXPECT_THAT(qaReportHtml(m), Not(HasSubstr("these figures compare it with M")));
   EXPECT_THAT(qaReportHtml(m), HasSubstr("<td>baked from</td><td class=\"n\">mesh (auto: the scan is a mesh)</td>"));
