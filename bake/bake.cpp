@@ -306,6 +306,9 @@ Result<Bake> bakeWith(const DetailSurface& detail, const CoarseSurface& coarseSu
 
   reportProgress(onProgress, kSamplingStart);
   phase = Stopwatch();
+  APO_RETURN_IF_ERROR(detail.caster->ready());
+  if (const double waited = phase.seconds(); waited >= 0.01)
+    spdlog::info("bake: the sampling waited {:.2f} s for M's ray caster", waited);
   // With a budget, internal nodes may show m's normals, as leaves may.
   const sampling::SamplingSettings sampling{options.samples, reach, options.budget > 0};
   const sampling::SampleCounts counts = sampling::sampleNormalField(

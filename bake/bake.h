@@ -106,8 +106,10 @@ struct Bake {
 
 // M as the sampler sees it: `detail` is a mesh with unit vertex normals or
 // points with unit normals; `caster` hits its triangles (hit.primitive = the
-// triangle) or its points' discs (hit.primitive = the point); `closest`
-// answers when both rays of a sample miss.
+// triangle) or its points' discs (hit.primitive = the point), and may still
+// be building when the bake starts (only the sampling casts rays on M: it
+// waits on caster->ready()); `closest` answers when both rays of a sample
+// miss.
 struct DetailSurface {
   const Scan* detail = nullptr;
   const RayCaster* caster = nullptr;

@@ -3,6 +3,7 @@
 // brute-force version can stand in for tests.
 #pragma once
 
+#include "core/error.h"
 #include "core/geometry.h"
 
 #include <cstdint>
@@ -33,6 +34,10 @@ class RayCaster {
   virtual ~RayCaster() = default;
   // Nearest hit of each ray; hits[i] answers rays[i]. Deterministic.
   virtual void intersect(const std::vector<Ray>& rays, std::vector<RayHit>& hits) const = 0;
+  // Returns once the caster can answer, or why it never will: a caster may
+  // still be building its structure (the bake builds M's beside the octree).
+  // Call it before the first intersect.
+  virtual Status ready() const { return okStatus(); }
 };
 
 }  // namespace apo
