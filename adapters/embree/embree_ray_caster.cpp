@@ -168,7 +168,7 @@ class EmbreeClosestPoint final : public ClosestPointFinder {
   }
 
   std::optional<SurfacePoint> closest(const Vec3f& query) const override {
-    Found found{this, query};
+    Found found{this, query, kNone, {}};
     RTCPointQuery point{};
     point.x = query.x();
     point.y = query.y();
