@@ -678,10 +678,21 @@ class Refinement {
     return candidate;
   }
 
+  // The children that would hold some of m, as coarseInChildren keeps them,
+  // without the lists: a child counts from its first triangle of m on, the
+  // others test no more against it (counting through the lists spent 8% of
+  // the 1.2M bunny's bake in separating-axis tests).
   int keptChildrenOf(const Leaf& leaf) const {
-    int kept = 0;
-    for (const auto& triangles : coarseInChildren(leaf)) kept += !triangles.empty();
-    return kept;
+    unsigned kept = 0;
+    for (const std::uint32_t t : leaf.triangles) {
+      const Bounds bounds = coarseBounds(coarse_, t);
+      const bool sure = insideOneChild(leaf.cell, bounds);
+      forChildrenTouching(leaf.cell, bounds, [&](int c) {
+        if (!(kept & (1u << c)) && (sure || coarseOverlaps(coarse_, t, leaf.cell.child(c)))) kept |= 1u << c;
+      });
+      if (kept == 0xFF) break;
+    }
+    return std::popcount(kept);
   }
 
   LeafError errorOf(const Leaf& leaf) const {
