@@ -1,4 +1,5 @@
-// `apo`: parse the command line, run one subcommand, return its exit code.
+// apo's engine (apo-engine, started by the `apo` launcher): parse the
+// command line, run one subcommand, return its exit code.
 #include "cli/commands.h"
 
 #include <spdlog/sinks/stdout_color_sinks.h>
@@ -91,9 +92,11 @@ void keepFreedMemoryInTheHeap() {
 // `glibc.malloc.hugetlb` tunable says so, which it reads from the
 // environment at start-up. With 4 KiB pages a fifth of the bake went to page
 // faults: 1.2M triangles at 3 MiB 5.7 s, 4.4 s with the tunable; the 7.2M
-// torus 15.1 s, 10.7 s (docs/benchmarks.md, "A faster build"). So the
-// process starts itself again once with the tunable set. A tunable the
-// user set is left alone, and a failed exec only costs the speed.
+// torus 15.1 s, 10.7 s (docs/benchmarks.md, "A faster build"). The `apo`
+// launcher (launcher.cpp) sets the tunable before it starts this engine;
+// run directly (a Slurm script names the engine's path), the engine starts
+// itself again once with the tunable set. A tunable the user set is left
+// alone, and a failed exec only costs the speed.
 void restartWithHugePagesUnlessAsked(char** argv) {
   const char* tunables = std::getenv("GLIBC_TUNABLES");
   const std::string given = tunables ? tunables : "";

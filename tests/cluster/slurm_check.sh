@@ -37,7 +37,9 @@ cleanup() {
   done
   if [ "$installed" = yes ]; then
     DEBIAN_FRONTEND=noninteractive apt-get remove -y -q apo >"$work/remove.log" 2>&1 || cat "$work/remove.log" >&2
-    if [ -e /usr/bin/apo ]; then echo "slurm_check: FAILED: /usr/bin/apo left after apt-get remove" >&2; status=1; fi
+    for file in /usr/bin/apo /usr/lib/apo/apo-engine; do
+      if [ -e $file ]; then echo "slurm_check: FAILED: $file left after apt-get remove" >&2; status=1; fi
+    done
   fi
   if [ $status -ne 0 ]; then
     for log in "$work"/*.log "$work"/out*/slurm/*.log; do
