@@ -69,8 +69,15 @@ namespace {
 Status validateSeams(const DetailSurface& detail, const CoarseSurface& coarse) {
   if (!coarse.mesh || !coarse.caster) return internalError("bake: the coarse surface is incomplete");
   if (!detail.detail || !detail.caster || !detail.closest) return internalError("bake: the detail surface is incomplete");
+  return okStatus();
+}
+
+// The points' areas, once they are known; an Internal error unless there is
+// one per point (or none).
+Status pointAreasReady(const DetailSurface& detail) {
+  if (detail.awaitPointAreas) APO_RETURN_IF_ERROR(detail.awaitPointAreas());
   const Scan& M = *detail.detail;
-  if (!M.isMesh() && !detail.pointAreas.empty() && detail.pointAreas.size() != M.points.size())
+  if (!detail.pointAreas.empty() && detail.pointAreas.size() != M.points.size())
     return internalError("bake: {} point areas for {} points", detail.pointAreas.size(), M.points.size());
   return okStatus();
 }
@@ -164,7 +171,7 @@ std::optional<Vec3f> alongNormalOntoCorners(const Vec3f& centre, const Vec3f& no
 
 // M for the error metric (octree_build.h): in unit-cube coordinates, each
 // triangle shifted and each point moved to where it projects onto m.
-octree::DetailPrimitives detailForErrorMetric(const DetailSurface& surface, const CoarseSurface& coarse,
+Result<octree::DetailPrimitives> detailForErrorMetric(const DetailSurface& surface, const CoarseSurface& coarse,
                                               const std::vector<Vec3f>& coarseNormals, float reach,
                                               const UnitCubeTransform& transform) {
   const Scan& M = *surface.detail;
@@ -207,8 +214,9 @@ octree::DetailPrimitives detailForErrorMetric(const DetailSurface& surface, cons
                                             meanUnitArea > 0.0 ? 1.0 / meanUnitArea : 1.0, shifts, corners.coarseNormals);
   }
   detail.normals = M.points.normals;
-  detail.weights = surface.pointAreas.empty() ? std::vector<float>(M.points.size(), 1.0f) : surface.pointAreas;
   Projection projection = projectOntoCoarse(M.points.positions, detail.normals, coarse, coarseNormals, reach);
+  APO_RETURN_IF_ERROR(pointAreasReady(surface));  // computed meanwhile, maybe
+  detail.weights = surface.pointAreas.empty() ? std::vector<float>(M.points.size(), 1.0f) : surface.pointAreas;
   for (const Vec3f& p : projection.positions) detail.positions.push_back(transform.toUnit(p));
   detail.coarseNormals = std::move(projection.coarseNormals);
   detail.coarseKnown = true;
@@ -283,8 +291,9 @@ Result<Bake> bakeWith(const DetailSurface& detail, const CoarseSurface& coarseSu
   const std::uint64_t maxTexels = budgetTexels(options.budget);
   octree::BuiltOctree built;
   {
-    const octree::DetailPrimitives primitives =
-        detailForErrorMetric(detail, coarseSurface, coarseNormals, reach, transform);
+    auto metricInput = detailForErrorMetric(detail, coarseSurface, coarseNormals, reach, transform);
+    if (!metricInput) return metricInput.error();
+    const octree::DetailPrimitives& primitives = *metricInput;
     report.seconds.setup += phase.seconds();
     reportProgress(onProgress, kBuildStart);
     phase = Stopwatch();
@@ -307,6 +316,7 @@ Result<Bake> bakeWith(const DetailSurface& detail, const CoarseSurface& coarseSu
   reportProgress(onProgress, kSamplingStart);
   phase = Stopwatch();
   APO_RETURN_IF_ERROR(detail.caster->ready());
+  APO_RETURN_IF_ERROR(detail.closest->ready());
   if (const double waited = phase.seconds(); waited >= 0.01)
     spdlog::info("bake: the sampling waited {:.2f} s for M's ray caster", waited);
   // With a budget, internal nodes may show m's normals, as leaves may.

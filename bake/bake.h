@@ -18,6 +18,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -109,12 +110,17 @@ struct Bake {
 // triangle) or its points' discs (hit.primitive = the point), and may still
 // be building when the bake starts (only the sampling casts rays on M: it
 // waits on caster->ready()); `closest` answers when both rays of a sample
-// miss.
+// miss, and may be building too (closest->ready()).
 struct DetailSurface {
   const Scan* detail = nullptr;
   const RayCaster* caster = nullptr;
   const ClosestPointFinder* closest = nullptr;
-  std::vector<float> pointAreas;  // points only: each point's share of the surface
+  // Points only: each point's share of the surface (empty: equal shares).
+  // When `awaitPointAreas` is set, they are still being computed (pipeline's
+  // bakeApo computes them beside the projection of M onto m): the bake calls
+  // it, on its own thread, before it reads them, and fails with its error.
+  std::vector<float> pointAreas;
+  std::function<Status()> awaitPointAreas;
 };
 
 // m as the bake sees it: a triangle mesh and a caster that hits its

@@ -22,13 +22,19 @@ namespace {
 // once the octree is built (the sampling), so Embree's BVH (0.45 s of the
 // 1.2M-triangle bunny's 4 s) is built while the projection onto m and the
 // octree's serial rounds leave a core idle. With one thread the task runs
-// when the sampling first waits on it, as before.
+// when the sampling first waits on it, as before. Only the thread that
+// starts it waits on it (the bake's).
 class CasterBuiltAside final : public RayCaster {
  public:
   using Make = std::function<Result<std::unique_ptr<RayCaster>>()>;
 
-  explicit CasterBuiltAside(Make make) {
-    building_.run([this, make = std::move(make)] { built_.emplace(make()); });
+  // Starts the build, logging how long it took as `what`.
+  void start(std::string what, Make make) {
+    building_.run([this, what = std::move(what), make = std::move(make)] {
+      const Stopwatch building;
+      built_.emplace(make());
+      spdlog::info("bake: M's ray caster ({}) built in {:.2f} s, beside the octree", what, building.seconds());
+    });
   }
   // A failed build was reported by ready(), or the bake failed before it.
   ~CasterBuiltAside() noexcept override {
@@ -40,6 +46,7 @@ class CasterBuiltAside final : public RayCaster {
 
   Status ready() const override {
     building_.wait();
+    if (!built_) return internalError("bake: M's ray caster was never started");
     if (!built_->ok()) return built_->error();
     return (**built_)->ready();
   }
@@ -52,44 +59,77 @@ class CasterBuiltAside final : public RayCaster {
   std::optional<Result<std::unique_ptr<RayCaster>>> built_;
 };
 
-// M's caster and closest-point finder. A mesh: its triangles, and the
-// finder built on its first query (the rays rarely miss M). Points: a disc
-// per point whose area is the point's share of the surface, the radii and
-// the finder from one k-d tree (a second tree over 2M points cost 0.3 s,
-// for 54 samples whose rays missed every disc); the metric needs the radii
-// (the points' areas) before the build, the discs only the sampling.
-struct DetailSearch {
-  std::unique_ptr<RayCaster> caster;
-  std::unique_ptr<ClosestPointFinder> closest;
+// A point scan's k-d tree (FLANN: the discs' radii, and the closest point
+// where both rays of a sample miss every disc) built on a TBB task from the
+// start: the bake projects M's points onto m meanwhile, and needs the radii
+// only after that, to weigh the points (the tree's build is serial: 0.3 s
+// of the 2M points' bake, now beside the projection's rays).
+class PointsSearchAside final : public ClosestPointFinder {
+ public:
+  explicit PointsSearchAside(const PointSet& points) {
+    building_.run([this, &points] {
+      const Stopwatch radii;
+      built_.emplace(makeFlannPointsSearch(points));
+      spdlog::info("bake: disc radii of {} points (FLANN k-d tree, nearest neighbours) in {:.2f} s", points.size(),
+                   radii.seconds());
+    });
+  }
+  ~PointsSearchAside() noexcept override {
+    try {
+      building_.wait();
+    } catch (...) {
+    }
+  }
+
+  Status ready() const override {
+    building_.wait();
+    if (!built_->ok()) return built_->error();
+    return okStatus();
+  }
+  // After ready().
+  const std::vector<float>& radii() const { return (*built_)->radii; }
+  std::optional<SurfacePoint> closest(const Vec3f& query) const override { return (*built_)->closest->closest(query); }
+
+ private:
+  mutable tbb::task_group building_;
+  std::optional<Result<PointsSearch>> built_;
 };
 
-// Builds the caster aside, logging how long it took.
-std::unique_ptr<RayCaster> casterBuiltAside(std::string what, CasterBuiltAside::Make make) {
-  return std::make_unique<CasterBuiltAside>([what = std::move(what), make = std::move(make)] {
-    const Stopwatch building;
-    auto caster = make();
-    spdlog::info("bake: M's ray caster ({}) built in {:.2f} s, beside the octree", what, building.seconds());
-    return caster;
-  });
-}
+// M's caster and closest-point finder, both made beside the bake. A mesh:
+// its triangles, and the finder built on its first query (the rays rarely
+// miss M). Points: a disc per point whose area is the point's share of the
+// surface, the radii and the finder from one k-d tree (a second tree over 2M
+// points cost 0.3 s, for 54 samples whose rays missed every disc); the
+// discs' BVH starts once the radii are known, when the bake asks for the
+// points' areas (DetailSurface::awaitPointAreas).
+struct DetailSearch {
+  std::unique_ptr<ClosestPointFinder> closest;
+  // After `closest`, so destroyed first: the discs' build reads the radii.
+  std::unique_ptr<CasterBuiltAside> caster = std::make_unique<CasterBuiltAside>();
+};
 
 Result<DetailSearch> detailSearch(const Scan& M, DetailSurface& surface) {
+  DetailSearch search;
   if (M.isMesh()) {
     auto closest = makeFlannClosestPointOnDemand(M);
     if (!closest) return closest.error();
-    return DetailSearch{casterBuiltAside(fmt::format("Embree BVH over {} triangles", M.triangles.size()),
-                                         [&M] { return makeEmbreeMeshCaster(M); }),
-                        std::move(closest).value()};
+    search.closest = std::move(closest).value();
+    search.caster->start(fmt::format("Embree BVH over {} triangles", M.triangles.size()),
+                         [&M] { return makeEmbreeMeshCaster(M); });
+    return search;
   }
-  const Stopwatch radii;
-  auto points = makeFlannPointsSearch(M.points);
-  if (!points) return points.error();
-  spdlog::info("bake: disc radii of {} points (FLANN k-d tree, nearest neighbours) in {:.2f} s", M.points.size(),
-               radii.seconds());
-  for (const float r : points->radii) surface.pointAreas.push_back(r * r);
-  auto caster = casterBuiltAside(fmt::format("Embree BVH over {} discs", M.points.size()),
-                                 [&M, radii = std::move(points->radii)] { return makeEmbreeDiscCaster(M.points, radii); });
-  return DetailSearch{std::move(caster), std::move(points->closest)};
+  auto points = std::make_unique<PointsSearchAside>(M.points);
+  // Called by the bake on its own thread, the only one that waits on either task.
+  surface.awaitPointAreas = [&M, &surface, points = points.get(), caster = search.caster.get()]() -> Status {
+    APO_RETURN_IF_ERROR(points->ready());
+    surface.pointAreas.clear();
+    for (const float r : points->radii()) surface.pointAreas.push_back(r * r);
+    caster->start(fmt::format("Embree BVH over {} discs", M.points.size()),
+                  [&M, points] { return makeEmbreeDiscCaster(M.points, points->radii()); });
+    return okStatus();
+  };
+  search.closest = std::move(points);
+  return search;
 }
 
 }  // namespace

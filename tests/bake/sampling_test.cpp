@@ -15,6 +15,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
+#include <memory>
 #include <numbers>
 
 namespace apo {
@@ -92,6 +94,65 @@ TEST(Sampling, EmbreeDiscsAgreeWithBruteForceOnPoints) {
   for (std::size_t n = 0; n < a.nodes.size(); ++n) same += degreesBetween(a.nodes[n].normal, b.nodes[n].normal) < 0.01 ? 1 : 0;
   EXPECT_GT(same, a.nodes.size() * 95 / 100);
   EXPECT_LT(worstLeafDifference(a, b), 2.0);
+}
+
+// pipeline's bakeApo computes a point scan's areas beside the projection onto
+// m (DetailSurface::awaitPointAreas): given late, they bake the same bytes;
+// the wait's error, or a wrong count, fails the bake.
+TEST(Sampling, PointAreasGivenLaterBakeTheSameAndTheirFailureFailsTheBake) {
+  const test::BumpySphere shape;
+  const Scan coarse = test::makeIcosphere(2);
+  Scan points = shape.mesh(3);
+  points.triangles.clear();
+  const std::vector<float> radii = discRadii(points.points).value();
+  std::vector<float> areas;
+  for (const float r : radii) areas.push_back(r * r);
+  const test::BruteForceCaster caster(points, radii);
+  const test::BruteForceClosestPoint closest(points);
+  const test::BruteForceCaster coarseCaster(coarse);
+  const auto surfaceWith = [&](std::function<Status(DetailSurface&)> await) {
+    auto surface = std::make_unique<DetailSurface>();
+    surface->detail = &points;
+    surface->caster = &caster;
+    surface->closest = &closest;
+    DetailSurface* s = surface.get();
+    if (await) surface->awaitPointAreas = [s, await] { return await(*s); };
+    else surface->pointAreas = areas;
+    return surface;
+  };
+  auto given = bakeWith(*surfaceWith(nullptr), {&coarse, &coarseCaster}, smallOptions());
+  ASSERT_TRUE(given.ok()) << given.error().message;
+  int waits = 0;
+  auto late = bakeWith(*surfaceWith([&](DetailSurface& s) {
+                         ++waits;
+                         s.pointAreas = areas;
+                         return okStatus();
+                       }),
+                       {&coarse, &coarseCaster}, smallOptions());
+  ASSERT_TRUE(late.ok()) << late.error().message;
+  EXPECT_EQ(waits, 1);
+  EXPECT_EQ(late->texture.texels, given->texture.texels);
+  // Areas that differ change the bake: the late ones are really used.
+  auto reweighted = bakeWith(*surfaceWith([&](DetailSurface& s) {
+                           s.pointAreas = areas;
+                           for (std::size_t i = 0; i < s.pointAreas.size() / 2; ++i) s.pointAreas[i] *= 100.0f;
+                           return okStatus();
+                         }),
+                         {&coarse, &coarseCaster}, smallOptions());
+  ASSERT_TRUE(reweighted.ok()) << reweighted.error().message;
+  EXPECT_NE(reweighted->texture.texels, given->texture.texels);
+
+  auto failed = bakeWith(*surfaceWith([](DetailSurface&) -> Status { return internalError("the k-d tree failed"); }),
+                         {&coarse, &coarseCaster}, smallOptions());
+  ASSERT_FALSE(failed.ok());
+  EXPECT_EQ(failed.error().message, "the k-d tree failed");
+  auto tooFew = bakeWith(*surfaceWith([&](DetailSurface& s) {
+                           s.pointAreas.assign(areas.size() - 1, 1.0f);
+                           return okStatus();
+                         }),
+                         {&coarse, &coarseCaster}, smallOptions());
+  ASSERT_FALSE(tooFew.ok());
+  EXPECT_NE(tooFew.error().message.find("point areas for"), std::string::npos) << tooFew.error().message;
 }
 
 // m: one large triangle in z = 0. M: a fine grid just above it whose normal
