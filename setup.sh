@@ -14,7 +14,7 @@ PACKAGES=(
   # headless rendering
   libosmesa6-dev
   # command line, formats, logging, hashing
-  libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev libstb-dev libssl-dev libdeflate-dev
+  libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev libstb-dev libssl-dev libdeflate-dev liblzf-dev
   # tests and benchmarks; headless Chromium and its WebDriver for the QA
   # report's browser test (tests/report/browser_check.py); clang and its
   # runtime (libFuzzer, ASan, UBSan) for the fuzzers (fuzz/run.sh)

@@ -27,7 +27,7 @@ Result<std::vector<std::vector<int>>> nearestNeighbours(const std::vector<Vec3f>
 // (exact k-d tree search; `reference` must not be empty).
 Result<std::vector<int>> nearestInReference(const std::vector<Vec3f>& reference, const std::vector<Vec3f>& queries);
 
-// PCL's LZF decompressor (PCD binary_compressed, pcl_lzf.cpp): decodes
+// PCD's LZF decompressor (binary_compressed; liblzf, pcl_lzf.cpp): decodes
 // `compressed` into exactly `out.size()` bytes; false when the data is corrupt
 // or decodes to another size. Never reads or writes outside the two buffers.
 bool lzfDecompress(std::string_view compressed, std::vector<char>& out);
