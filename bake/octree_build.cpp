@@ -66,26 +66,39 @@ void clipAgainstLine(const ParameterPolygon& polygon, double offset, double alon
   }
 }
 
-// The part of triangle abc inside the cell, in abc's (u, v) coordinates.
+// Triangle abc's corners' bounds and its own (u, v) frame, p(u, v) = origin
+// + u alongU + v alongV, in double: what every clip of it needs.
+struct TriangleFrame {
+  Vec3f lo, hi;
+  Eigen::Vector3d origin, alongU, alongV;
+
+  TriangleFrame(const Vec3f& a, const Vec3f& b, const Vec3f& c)
+      : lo(a.cwiseMin(b).cwiseMin(c)),
+        hi(a.cwiseMax(b).cwiseMax(c)),
+        origin(a.cast<double>()),
+        alongU((b - a).cast<double>()),
+        alongV((c - a).cast<double>()) {}
+};
+
+// The part of the triangle inside the cell, in its (u, v) coordinates.
 // Only the faces the triangle crosses cut: most triangles filed into a child
 // cross one or two of its six faces.
-ParameterPolygon clipInParameters(const Vec3f& a, const Vec3f& b, const Vec3f& c, const Cell& cell) {
+ParameterPolygon clipInParameters(const TriangleFrame& frame, const Cell& cell) {
   std::array<ParameterPolygon, 2> buffers;
   ParameterPolygon* polygon = &buffers[0];
   ParameterPolygon* scratch = &buffers[1];
   polygon->corners = {Eigen::Vector2d(0.0, 0.0), Eigen::Vector2d(1.0, 0.0), Eigen::Vector2d(0.0, 1.0)};
   polygon->size = 3;
   const Vec3f lower = cell.lower(), upper = cell.upper();
-  const Vec3f lo = a.cwiseMin(b).cwiseMin(c), hi = a.cwiseMax(b).cwiseMax(c);
-  const Eigen::Vector3d origin = a.cast<double>(), alongU = (b - a).cast<double>(), alongV = (c - a).cast<double>();
   // Keeps sign * (p[axis] - bound) <= 0.
   const auto clip = [&](int axis, float bound, double sign) {
-    clipAgainstLine(*polygon, sign * (origin[axis] - bound), sign * alongU[axis], sign * alongV[axis], *scratch);
+    clipAgainstLine(*polygon, sign * (frame.origin[axis] - bound), sign * frame.alongU[axis], sign * frame.alongV[axis],
+                    *scratch);
     std::swap(polygon, scratch);
   };
   for (int axis = 0; axis < 3 && polygon->size > 0; ++axis) {
-    if (hi[axis] > upper[axis]) clip(axis, upper[axis], 1.0);
-    if (lo[axis] < lower[axis] && polygon->size > 0) clip(axis, lower[axis], -1.0);
+    if (frame.hi[axis] > upper[axis]) clip(axis, upper[axis], 1.0);
+    if (frame.lo[axis] < lower[axis] && polygon->size > 0) clip(axis, lower[axis], -1.0);
   }
   return *polygon;
 }
@@ -244,29 +257,40 @@ struct VariationSums {
   }
 };
 
-// The part of triangle t of M (`bounds` its corners' bounds) inside the
-// cell, added with its interpolated normals; false when that part is empty
-// (the triangle misses the cell or only touches it), so that the clip is
-// also the overlap test. The part's integrals come from its moments in the
-// triangle's own coordinates, exactly for the linear fields.
-bool addTriangleInCell(const DetailPrimitives& d, const DetailTriangle& t, const Bounds& bounds, const Cell& cell,
-                       VariationSums& sums) {
-  const auto& c = t.corners;
+// A triangle of M as the metric clips it: its frame, its area over the unit
+// triangle's, M's interpolated normals n and (when known) m's r, both linear
+// on it. Made once per triangle and split: a triangle crossing a cell's
+// midplanes is clipped into two to four children.
+struct MetricTriangle {
+  TriangleFrame frame;
+  double jacobian;
+  LinearField n, r;
+  bool coarseKnown;
+
+  MetricTriangle(const DetailPrimitives& d, const DetailTriangle& t)
+      : frame(t.corners[0], t.corners[1], t.corners[2]),
+        // Twice the triangle's area: the unit triangle's is a half.
+        jacobian(d.areaScale * (t.corners[1] - t.corners[0]).cast<double>().cross((t.corners[2] - t.corners[0]).cast<double>()).norm()),
+        n(LinearField::through(t.normals[0], t.normals[1], t.normals[2])),
+        r(LinearField::through(t.coarseNormals[0], t.coarseNormals[1], t.coarseNormals[2])),
+        coarseKnown(d.coarseKnown) {}
+
+  Bounds bounds() const { return {frame.lo, frame.hi}; }
+};
+
+// The part of triangle `m` of M inside the cell, added with its
+// interpolated normals; false when that part is empty (the triangle misses
+// the cell or only touches it), so that the clip is also the overlap test.
+// The part's integrals come from its moments in the triangle's own
+// coordinates, exactly for the linear fields.
+bool addTriangleInCell(const MetricTriangle& m, const Cell& cell, VariationSums& sums) {
   ParameterMoments moments = kWholeTriangle;
-  if (!boundsInsideCell(bounds, cell)) {
-    const ParameterPolygon part = clipInParameters(c[0], c[1], c[2], cell);
+  if (!boundsInsideCell(m.bounds(), cell)) {
+    const ParameterPolygon part = clipInParameters(m.frame, cell);
     if (part.size < 3) return false;
     moments = momentsOf(part);
   }
-  const LinearField n = LinearField::through(t.normals[0], t.normals[1], t.normals[2]);
-  // Twice the triangle's area: the unit triangle's is a half.
-  const double jacobian = d.areaScale * (c[1] - c[0]).cast<double>().cross((c[2] - c[0]).cast<double>()).norm();
-  if (!d.coarseKnown) {
-    sums.addPart(jacobian, moments, n, nullptr);
-    return true;
-  }
-  const LinearField r = LinearField::through(t.coarseNormals[0], t.coarseNormals[1], t.coarseNormals[2]);
-  sums.addPart(jacobian, moments, n, &r);
+  sums.addPart(m.jacobian, moments, m.n, m.coarseKnown ? &m.r : nullptr);
   return true;
 }
 
@@ -352,8 +376,7 @@ LeafError errorInCell(const DetailPrimitives& detail, std::span<const std::uint3
     if (detail.triangles.empty()) {
       addWeightedNormal(detail.weights[i], detail.normals[i], withCoarse ? &detail.coarseNormals[i] : nullptr, sums);
     } else {
-      const DetailTriangle& t = detail.triangles[i];
-      addTriangleInCell(detail, t, triangleBounds(t.corners[0], t.corners[1], t.corners[2]), cell, sums);
+      addTriangleInCell(MetricTriangle(detail, detail.triangles[i]), cell, sums);
     }
   }
   return leafErrorOf(sums, withCoarse, deferToCoarse, twoSides);
@@ -752,12 +775,9 @@ class Refinement {
       // cache misses overlap the clipping of the triangles before them.
       if (k + kPrefetchAhead < primitives.size()) prefetchRecord(detail_.triangles[primitives[k + kPrefetchAhead]]);
       const std::uint32_t t = primitives[k];
-      const DetailTriangle& triangle = detail_.triangles[t];
-      const auto& corners = triangle.corners;
-      const Bounds bounds = triangleBounds(corners[0], corners[1], corners[2]);
-      forChildrenTouching(cell, bounds, [&](int c) {
-        if ((mask & (1u << c)) && addTriangleInCell(detail_, triangle, bounds, cell.child(c), sums[c]))
-          out.primitives[c].push_back(t);
+      const MetricTriangle triangle(detail_, detail_.triangles[t]);
+      forChildrenTouching(cell, triangle.bounds(), [&](int c) {
+        if ((mask & (1u << c)) && addTriangleInCell(triangle, cell.child(c), sums[c])) out.primitives[c].push_back(t);
       });
     }
     const bool withCoarse = detail_.coarseKnown;
@@ -891,11 +911,11 @@ bool triangleOverlapsBox(const Vec3f& a, const Vec3f& b, const Vec3f& c, const C
 }
 
 std::vector<Vec3f> clipTriangleToCell(const Vec3f& a, const Vec3f& b, const Vec3f& c, const Cell& cell) {
-  const ParameterPolygon part = clipInParameters(a, b, c, cell);
-  const Eigen::Vector3d origin = a.cast<double>(), alongU = (b - a).cast<double>(), alongV = (c - a).cast<double>();
+  const TriangleFrame frame(a, b, c);
+  const ParameterPolygon part = clipInParameters(frame, cell);
   std::vector<Vec3f> corners;
   for (int k = 0; k < part.size; ++k)
-    corners.push_back((origin + part.corners[k].x() * alongU + part.corners[k].y() * alongV).cast<float>());
+    corners.push_back((frame.origin + part.corners[k].x() * frame.alongU + part.corners[k].y() * frame.alongV).cast<float>());
   return corners;
 }
 
