@@ -492,9 +492,16 @@ std::vector<std::pair<GridKey, std::uint32_t>> binIntoGrid(std::size_t count, in
           }
     }
   });
-  std::vector<std::pair<GridKey, std::uint32_t>> all;
-  for (auto& pairs : perChunk) all.insert(all.end(), pairs.begin(), pairs.end());
-  std::sort(all.begin(), all.end());
+  // Gathered and sorted on every core: on one, the 1.2M bunny's 1.5M pairs
+  // left the second core idle for 0.1 s. Distinct pairs: one order whatever
+  // the threads.
+  std::vector<std::size_t> offsets(perChunk.size() + 1, 0);
+  for (std::size_t chunk = 0; chunk < perChunk.size(); ++chunk) offsets[chunk + 1] = offsets[chunk] + perChunk[chunk].size();
+  std::vector<std::pair<GridKey, std::uint32_t>> all(offsets.back());
+  tbb::parallel_for(std::size_t{0}, perChunk.size(), [&](std::size_t chunk) {
+    std::copy(perChunk[chunk].begin(), perChunk[chunk].end(), all.begin() + static_cast<std::ptrdiff_t>(offsets[chunk]));
+  });
+  tbb::parallel_sort(all.begin(), all.end());
   return all;
 }
 
