@@ -18,79 +18,78 @@
 namespace apo {
 namespace {
 
-// Waits for a task building a search structure, from its owner's destructor:
-// a failure was reported by the owner's ready(), or the bake failed before.
-void finishBuilding(tbb::task_group& building) noexcept {
-  try {
-    building.wait();
-  } catch (...) {
-  }
-}
-
-// M's ray caster built on a TBB task beside the bake: rays are cast on M only
-// once the octree is built (the sampling), so Embree's BVH (0.45 s of the
-// 1.2M-triangle bunny's 4 s) is built while the projection onto m and the
-// octree's serial rounds leave a core idle. With one thread the task runs
-// when the sampling first waits on it, as before. Only the thread that
-// starts it waits on it (the bake's).
-class CasterBuiltAside final : public RayCaster {
+// A search structure built on a TBB task beside the bake, waited on only by
+// the thread that started it (the bake's): with one thread, the task runs at
+// that wait. `what` names it in the log line giving its time.
+template <class T>
+class BuiltAside {
  public:
-  using Make = std::function<Result<std::unique_ptr<RayCaster>>()>;
-
-  // Starts the build, logging how long it took as `what`.
-  void start(std::string what, Make make) {
+  void start(std::string what, std::function<Result<T>()> make) {
     building_.run([this, what = std::move(what), make = std::move(make)] {
       const Stopwatch building;
       built_.emplace(make());
-      spdlog::info("bake: M's ray caster ({}) built in {:.2f} s, beside the octree", what, building.seconds());
+      spdlog::info("bake: {} built in {:.2f} s, beside the bake", what, building.seconds());
     });
   }
-  ~CasterBuiltAside() noexcept override { finishBuilding(building_); }
+  // A failure was reported by ready(), or the bake failed before it.
+  ~BuiltAside() noexcept {
+    try {
+      building_.wait();
+    } catch (...) {
+    }
+  }
 
-  Status ready() const override {
+  Status ready() const {
     building_.wait();
-    if (!built_) return internalError("bake: M's ray caster was never started");
+    if (!built_) return internalError("bake: a search structure over M was never started");
     if (!built_->ok()) return built_->error();
-    return (**built_)->ready();
+    return okStatus();
   }
-  void intersect(const std::vector<Ray>& rays, std::vector<RayHit>& hits) const override {
-    (**built_)->intersect(rays, hits);
-  }
+  const T& get() const { return **built_; }  // after ready()
 
  private:
   mutable tbb::task_group building_;
-  std::optional<Result<std::unique_ptr<RayCaster>>> built_;
+  std::optional<Result<T>> built_;
+};
+
+// M's ray caster built beside the bake: rays are cast on M only once the
+// octree is built (the sampling), so Embree's BVH (0.45 s of the
+// 1.2M-triangle bunny's 4 s) is built while the projection onto m and the
+// octree's serial rounds leave a core idle.
+class CasterBuiltAside final : public RayCaster {
+ public:
+  void start(std::string what, std::function<Result<std::unique_ptr<RayCaster>>()> make) {
+    aside_.start("M's ray caster (" + what + ")", std::move(make));
+  }
+  Status ready() const override {
+    APO_RETURN_IF_ERROR(aside_.ready());
+    return aside_.get()->ready();
+  }
+  void intersect(const std::vector<Ray>& rays, std::vector<RayHit>& hits) const override {
+    aside_.get()->intersect(rays, hits);
+  }
+
+ private:
+  BuiltAside<std::unique_ptr<RayCaster>> aside_;
 };
 
 // A point scan's k-d tree (FLANN: the discs' radii, and the closest point
-// where both rays of a sample miss every disc) built on a TBB task from the
+// where both rays of a sample miss every disc) built beside the bake from the
 // start: the bake projects M's points onto m meanwhile, and needs the radii
 // only after that, to weigh the points (the tree's build is serial: 0.3 s
 // of the 2M points' bake, now beside the projection's rays).
 class PointsSearchAside final : public ClosestPointFinder {
  public:
   explicit PointsSearchAside(const PointSet& points) {
-    building_.run([this, &points] {
-      const Stopwatch radii;
-      built_.emplace(makeFlannPointsSearch(points));
-      spdlog::info("bake: disc radii of {} points (FLANN k-d tree, nearest neighbours) in {:.2f} s", points.size(),
-                   radii.seconds());
-    });
+    aside_.start(fmt::format("the disc radii of {} points (FLANN k-d tree, nearest neighbours)", points.size()),
+                 [&points] { return makeFlannPointsSearch(points); });
   }
-  ~PointsSearchAside() noexcept override { finishBuilding(building_); }
-
-  Status ready() const override {
-    building_.wait();
-    if (!built_->ok()) return built_->error();
-    return okStatus();
-  }
-  // After ready().
-  const std::vector<float>& radii() const { return (*built_)->radii; }
-  std::optional<SurfacePoint> closest(const Vec3f& query) const override { return (*built_)->closest->closest(query); }
+  Status ready() const override { return aside_.ready(); }
+  const std::vector<float>& radii() const { return aside_.get().radii; }  // after ready()
+  std::optional<SurfacePoint> closest(const Vec3f& query) const override { return aside_.get().closest->closest(query); }
 
  private:
-  mutable tbb::task_group building_;
-  std::optional<Result<PointsSearch>> built_;
+  BuiltAside<PointsSearch> aside_;
 };
 
 // M's caster and closest-point finder, both made beside the bake. A mesh:
