@@ -3,8 +3,8 @@
 //
 // The engine's bake spends a fifth of its time in page faults with 4 KiB
 // pages; glibc asks the kernel for huge pages only when its tunable
-// `glibc.malloc.hugetlb` says so, and reads it at start-up only (see
-// cli/main.cpp). The engine loads 26 shared libraries before main (40 ms
+// `glibc.malloc.hugetlb` says so, and reads it at start-up only
+// (huge_pages.h). The engine loads 26 shared libraries before main (40 ms
 // on the test machine; 82 and 80 ms when PCL's I/O library was linked), so
 // when it restarted itself to set the tunable every command paid that
 // twice. This launcher loads only libc and libstdc++.
@@ -12,6 +12,8 @@
 // The engine is looked for beside the launcher (the build tree) and in
 // ../lib/apo (installed: /usr/bin/apo, /usr/lib/apo/apo-engine). A tunable
 // the caller set is left alone, as the engine itself does.
+#include "cli/huge_pages.h"
+
 #include <unistd.h>
 
 #include <cerrno>
@@ -36,11 +38,9 @@ std::string directoryOfThisProgram() {
 }
 
 void askForHugePages() {
-  const char* given = std::getenv("GLIBC_TUNABLES");
-  const std::string tunables = given ? given : "";
-  if (tunables.find("glibc.malloc.hugetlb") != std::string::npos) return;
-  const std::string wanted = (tunables.empty() ? "" : tunables + ":") + "glibc.malloc.hugetlb=1";
-  setenv("GLIBC_TUNABLES", wanted.c_str(), 1);  // on failure the engine asks again itself
+  // On failure the engine asks again itself.
+  if (const auto wanted = apo::cli::tunablesWithHugePages(std::getenv("GLIBC_TUNABLES")))
+    setenv("GLIBC_TUNABLES", wanted->c_str(), 1);
 }
 
 }  // namespace

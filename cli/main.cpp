@@ -1,6 +1,7 @@
 // apo's engine (apo-engine, started by the `apo` launcher): parse the
 // command line, run one subcommand, return its exit code.
 #include "cli/commands.h"
+#include "cli/huge_pages.h"
 
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
@@ -87,22 +88,14 @@ void keepFreedMemoryInTheHeap() {
   mallopt(M_TOP_PAD, 64 << 20);
 }
 
-// The kernel here backs memory with huge pages only where a program asks
-// (transparent_hugepage "madvise"), and glibc asks only when its
-// `glibc.malloc.hugetlb` tunable says so, which it reads from the
-// environment at start-up. With 4 KiB pages a fifth of the bake went to page
-// faults: 1.2M triangles at 3 MiB 5.7 s, 4.4 s with the tunable; the 7.2M
-// torus 15.1 s, 10.7 s (docs/benchmarks.md, "A faster build"). The `apo`
-// launcher (launcher.cpp) sets the tunable before it starts this engine;
-// run directly (a Slurm script names the engine's path), the engine starts
-// itself again once with the tunable set. A tunable the user set is left
-// alone, and a failed exec only costs the speed.
+// Huge pages (huge_pages.h): the `apo` launcher sets the tunable before it
+// starts this engine; run directly (a Slurm script names the engine's path),
+// the engine starts itself again once with the tunable set. A failed exec
+// only costs the speed.
 void restartWithHugePagesUnlessAsked(char** argv) {
   const char* tunables = std::getenv("GLIBC_TUNABLES");
-  const std::string given = tunables ? tunables : "";
-  if (given.find("glibc.malloc.hugetlb") != std::string::npos) return;
-  const std::string wanted = (given.empty() ? "" : given + ":") + "glibc.malloc.hugetlb=1";
-  if (setenv("GLIBC_TUNABLES", wanted.c_str(), 1) != 0) return;
+  const std::optional<std::string> wanted = tunablesWithHugePages(tunables);
+  if (!wanted || setenv("GLIBC_TUNABLES", wanted->c_str(), 1) != 0) return;
   execv("/proc/self/exe", argv);
   if (tunables) setenv("GLIBC_TUNABLES", tunables, 1);  // the exec failed: run as we are
   else unsetenv("GLIBC_TUNABLES");
