@@ -610,6 +610,7 @@ std::string viewsSection(const Json& manifest) {
   const std::optional<double> sizeOption = numberAt(render, {"options", "size"});
   const int size = sizeOption && *sizeOption >= 1.0 && *sizeOption <= 16384.0 ? static_cast<int>(*sizeOption) : 512;
   const std::string folder = rendersFolder(manifest);
+  const bool pointsReference = referenceIsPoints(manifest);
 
   html += "<p>Each row: " + referenceName(manifest) +
           " (reference), the coarse mesh m with its own normals (baseline), m with the APO, and the APO's angular "
@@ -632,7 +633,7 @@ std::string viewsSection(const Json& manifest) {
                         label ? " (" + htmlEscape(*label) + side + ")" : std::string());
     if (means[i].apoScan)
       html += "mean angular error against the scan's points seen: " + meansText(means[i].apoScan, means[i].baselineScan) +
-              (referenceIsPoints(manifest) ? " &middot; rendered against them: " : " &middot; against M: ");
+              (pointsReference ? " &middot; rendered against them: " : " &middot; against M: ");
     else
       html += "mean angular error: ";
     html += meansText(means[i].apo, means[i].baseline);
@@ -641,7 +642,7 @@ std::string viewsSection(const Json& manifest) {
                         fixed(numberAt(&view, {"baseline", "image", "mean_absolute_error"}), 2));
     html += "</p>\n<div class=\"quad\">\n";
     const std::string title = "View " + nn + ": ";
-    const std::string reference = referenceIsPoints(manifest) ? "reference: the scan's points" : "reference M";
+    const std::string reference = pointsReference ? "reference: the scan's points" : "reference M";
     if (hasReference)
       html += imageCell(prefix + "reference.png", title + reference, reference, size);
     else
