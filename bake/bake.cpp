@@ -250,6 +250,7 @@ RefinementReport refinementReport(const octree::RefinementOutcome& outcome, cons
   report.leavesShowingCoarse = outcome.leavesShowingCoarse;
   report.twoSidedLeaves = outcome.twoSidedLeaves;
   report.leavesAtMaxDepth = outcome.leavesAtMaxDepth;
+  report.sumDepth = outcome.sumDepth;
   return report;
 }
 
@@ -311,7 +312,11 @@ Result<Bake> bakeWith(const DetailSurface& detail, const CoarseSurface& coarseSu
   report.refinement = refinementReport(built.refinement, options);
   built.octree.transform = transform;
   report.seconds.build = phase.seconds();
-  spdlog::info("bake: octree of {} nodes built in {:.2f} s", built.octree.nodes.size(), report.seconds.build);
+  if (built.refinement.sumDepth > 0)
+    spdlog::info("bake: octree of {} nodes built in {:.2f} s (M's triangles clipped once at depth {})",
+                 built.octree.nodes.size(), report.seconds.build, built.refinement.sumDepth);
+  else
+    spdlog::info("bake: octree of {} nodes built in {:.2f} s", built.octree.nodes.size(), report.seconds.build);
 
   reportProgress(onProgress, kSamplingStart);
   phase = Stopwatch();

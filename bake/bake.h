@@ -71,6 +71,7 @@ struct RefinementReport {
   double rmsDegrees = 0.0;         // M's normals about their leaf's mean
   std::uint64_t leavesShowingCoarse = 0, twoSidedLeaves = 0, leavesAtMaxDepth = 0;
   std::uint64_t internalNodesShowingCoarse = 0;  // where mip-mapped walks stop, m's normal
+  int sumDepth = 0;  // where the metric clipped M's triangles once (octree::sumDepthFor); 0: level by level
 };
 
 // The N^3-tree's shape and bytes (layout n3tree).

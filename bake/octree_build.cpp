@@ -6,6 +6,7 @@
 // error they remove per texel, until the texel budget is spent.
 #include "bake/octree_build.h"
 
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
 #include <tbb/scalable_allocator.h>
@@ -144,11 +145,18 @@ struct LinearField {
     return {at0 - other.at0, alongU - other.alongU, alongV - other.alongV};
   }
   Eigen::Vector3d integral(const ParameterMoments& m) const { return at0 * m.area + alongU * m.u + alongV * m.v; }
-  double squaredIntegral(const ParameterMoments& m) const {
-    return at0.squaredNorm() * m.area + 2.0 * at0.dot(alongU) * m.u + 2.0 * at0.dot(alongV) * m.v +
-           alongU.squaredNorm() * m.uu + 2.0 * alongU.dot(alongV) * m.uv + alongV.squaredNorm() * m.vv;
+  // |f|^2, whose integrals are those of the moments weighted.
+  ParameterMoments squared() const {
+    return {at0.squaredNorm(),       2.0 * at0.dot(alongU),         2.0 * at0.dot(alongV),
+            alongU.squaredNorm(),    2.0 * alongU.dot(alongV),      alongV.squaredNorm()};
   }
 };
+
+// The integral of a quadratic in (u, v) whose coefficients (of 1, u, v, u^2,
+// uv, v^2) are `field`, over a region whose moments are `m`.
+double integralOf(const ParameterMoments& field, const ParameterMoments& m) {
+  return field.area * m.area + field.u * m.u + field.v * m.v + field.uu * m.uu + field.uv * m.uv + field.vv * m.vv;
+}
 
 // ---- Primitive access -----------------------------------------------------
 
@@ -185,6 +193,31 @@ bool boundsInsideCell(const Bounds& b, const Cell& cell) {
   return (b.lo.array() >= cell.lower().array()).all() && (b.hi.array() <= cell.upper().array()).all();
 }
 
+// A triangle of M as the metric clips it: its frame, its area over the unit
+// triangle's, M's interpolated normals n and (when known) m's r, both linear
+// on it, and the quadratics |n|^2 and |n - r|^2 the sums integrate. Made once
+// per triangle and split: a triangle crossing a cell's midplanes is clipped
+// into two to four children, each piece integrated from its moments alone.
+struct MetricTriangle {
+  TriangleFrame frame;
+  double jacobian;
+  LinearField n, r;
+  ParameterMoments nSquared, gapSquared;
+  bool coarseKnown;
+
+  MetricTriangle(const DetailPrimitives& d, const DetailTriangle& t)
+      : frame(t.corners[0], t.corners[1], t.corners[2]),
+        // Twice the triangle's area: the unit triangle's is a half.
+        jacobian(d.areaScale * (t.corners[1] - t.corners[0]).cast<double>().cross((t.corners[2] - t.corners[0]).cast<double>()).norm()),
+        n(LinearField::through(t.normals[0], t.normals[1], t.normals[2])),
+        r(LinearField::through(t.coarseNormals[0], t.coarseNormals[1], t.coarseNormals[2])),
+        nSquared(n.squared()),
+        gapSquared((n - r).squared()),
+        coarseKnown(d.coarseKnown) {}
+
+  Bounds bounds() const { return {frame.lo, frame.hi}; }
+};
+
 // Running sums for the L2,1 integral of a cell: M's area, the integral of
 // its normal field n and of |n|^2; with n_C the unit mean normal, the
 // integral of |n - n_C|^2 expands into these.
@@ -198,6 +231,10 @@ struct Moments {
     squared += integralOfSquare;
   }
 
+  Moments& operator+=(const Moments& other) {
+    add(other.area, other.integral, other.squared);
+    return *this;
+  }
   Moments operator-(const Moments& other) const {
     return {area - other.area, squared - other.squared, integral - other.integral};
   }
@@ -227,20 +264,25 @@ struct VariationSums {
       if (leafSide(coarseMean->cast<float>(), axis) == 0) sideZero[axis].add(a, integralOfN, integralOfSquare);
   }
 
-  // The part of a triangle of M whose (u, v) moments are `m`, `jacobian` its
-  // area over the unit triangle's; n M's interpolated normals, r m's (null
-  // when unknown), both linear on the triangle.
-  void addPart(double jacobian, const ParameterMoments& m, const LinearField& n, const LinearField* r) {
-    const double a = jacobian * m.area;
-    const Eigen::Vector3d integralOfN = jacobian * n.integral(m);
-    const double integralOfSquare = jacobian * n.squaredIntegral(m);
-    if (!r) {
+  // The part of triangle t of M whose (u, v) moments are `m`.
+  void addPart(const MetricTriangle& t, const ParameterMoments& m) {
+    const double a = t.jacobian * m.area;
+    const Eigen::Vector3d integralOfN = t.jacobian * t.n.integral(m);
+    const double integralOfSquare = t.jacobian * integralOf(t.nSquared, m);
+    if (!t.coarseKnown) {
       add(a, integralOfN, integralOfSquare, nullptr);
       return;
     }
-    const Eigen::Vector3d coarseMean = r->integral(m);
+    const Eigen::Vector3d coarseMean = t.r.integral(m);
     add(a, integralOfN, integralOfSquare, &coarseMean);
-    coarse += jacobian * (n - *r).squaredIntegral(m);
+    coarse += t.jacobian * integralOf(t.gapSquared, m);
+  }
+
+  VariationSums& operator+=(const VariationSums& other) {
+    all += other.all;
+    for (int axis = 0; axis < 3; ++axis) sideZero[axis] += other.sideZero[axis];
+    coarse += other.coarse;
+    return *this;
   }
 
   double l21() const { return all.l21(); }
@@ -257,27 +299,6 @@ struct VariationSums {
   }
 };
 
-// A triangle of M as the metric clips it: its frame, its area over the unit
-// triangle's, M's interpolated normals n and (when known) m's r, both linear
-// on it. Made once per triangle and split: a triangle crossing a cell's
-// midplanes is clipped into two to four children.
-struct MetricTriangle {
-  TriangleFrame frame;
-  double jacobian;
-  LinearField n, r;
-  bool coarseKnown;
-
-  MetricTriangle(const DetailPrimitives& d, const DetailTriangle& t)
-      : frame(t.corners[0], t.corners[1], t.corners[2]),
-        // Twice the triangle's area: the unit triangle's is a half.
-        jacobian(d.areaScale * (t.corners[1] - t.corners[0]).cast<double>().cross((t.corners[2] - t.corners[0]).cast<double>()).norm()),
-        n(LinearField::through(t.normals[0], t.normals[1], t.normals[2])),
-        r(LinearField::through(t.coarseNormals[0], t.coarseNormals[1], t.coarseNormals[2])),
-        coarseKnown(d.coarseKnown) {}
-
-  Bounds bounds() const { return {frame.lo, frame.hi}; }
-};
-
 // The part of triangle `m` of M inside the cell, added with its
 // interpolated normals; false when that part is empty (the triangle misses
 // the cell or only touches it), so that the clip is also the overlap test.
@@ -290,7 +311,7 @@ bool addTriangleInCell(const MetricTriangle& m, const Cell& cell, VariationSums&
     if (part.size < 3) return false;
     moments = momentsOf(part);
   }
-  sums.addPart(m.jacobian, moments, m.n, m.coarseKnown ? &m.r : nullptr);
+  sums.addPart(m, moments);
   return true;
 }
 
@@ -621,6 +642,138 @@ class PointOrder {
   bool coarseKnown_ = false;
 };
 
+// ---- M's triangles summed once at a fine depth ----------------------------
+
+// The deepest level whose cells are at least this many times as wide as M's
+// triangles (their mean longest side) is where the metric clips M once, and
+// the levels above add its cells' sums (FineSums). Level by level, the 1.2M
+// bunny's build clipped 7.7M pieces of M down to that depth (8), of 11.5M in
+// all; once at it, 2.8M. Wider cells leave more levels to clip, narrower
+// ones cut each triangle into more pieces: the rule picks the fastest of
+// three depths on both the bunny (8) and the 7.2M torus (9)
+// (docs/benchmarks.md, "M's triangles clipped once at a fine depth").
+constexpr double kSumCellOverTriangle = 2.0;
+
+// The cells of depth `sumDepth` inside one coarse cell that M's triangles
+// meet, in Morton order within the coarse cell: for each, the L2,1 sums of
+// the triangles' parts in it and the triangles themselves. The cells of any
+// depth between the two are then runs of that order, and their sums the
+// sums of their runs, as M's points' are (PointOrder).
+class FineSums {
+ public:
+  struct Run {
+    std::uint32_t first = 0, end = 0;
+  };
+
+  // Each piece of a triangle in a fine cell, summed alone; reused from one
+  // coarse cell to the next on a thread (fresh memory for each cost more
+  // than the clipping: docs/benchmarks.md).
+  struct Scratch {
+    struct Piece {
+      std::uint64_t key;
+      std::uint32_t triangle, sums;  // sums: index into `sums`
+    };
+    std::vector<Piece> pieces;
+    std::vector<VariationSums> sums;
+  };
+
+  FineSums(const DetailPrimitives& d, const IdList& triangles, const Cell& coarseCell, int sumDepth, Scratch& scratch)
+      : coarse_(coarseCell), levels_(sumDepth - coarseCell.depth) {
+    // The pieces are added up in (cell, triangle) order: the sums do not
+    // depend on the order of `triangles`.
+    std::vector<Scratch::Piece>& pieces = scratch.pieces;
+    std::vector<VariationSums>& pieceSums = scratch.sums;
+    pieces.clear();
+    pieceSums.clear();
+    const int cellsPerAxis = 1 << sumDepth;
+    const std::array<int, 3> origin = gridOrigin(coarseCell, sumDepth);
+    const int side = 1 << levels_;
+    for (const std::uint32_t t : triangles) {
+      const MetricTriangle triangle(d, d.triangles[t]);
+      const GridRange range = gridRange(triangle.bounds(), cellsPerAxis);
+      std::array<int, 3> first{}, last{};
+      for (int axis = 0; axis < 3; ++axis) {
+        first[axis] = std::max(range.first[axis], origin[axis]);
+        last[axis] = std::min(range.last[axis], origin[axis] + side - 1);
+      }
+      for (int x = first[0]; x <= last[0]; ++x)
+        for (int y = first[1]; y <= last[1]; ++y)
+          for (int z = first[2]; z <= last[2]; ++z) {
+            VariationSums& sums = pieceSums.emplace_back();
+            if (!addTriangleInCell(triangle, gridCell(gridKey(x, y, z, sumDepth), sumDepth), sums)) {
+              pieceSums.pop_back();
+              continue;
+            }
+            const std::uint64_t key = mortonCode(static_cast<std::uint32_t>(x - origin[0]),
+                                                 static_cast<std::uint32_t>(y - origin[1]),
+                                                 static_cast<std::uint32_t>(z - origin[2]));
+            pieces.push_back({key, t, static_cast<std::uint32_t>(pieceSums.size() - 1)});
+          }
+    }
+    std::sort(pieces.begin(), pieces.end(), [](const Scratch::Piece& a, const Scratch::Piece& b) {
+      return a.key != b.key ? a.key < b.key : a.triangle < b.triangle;
+    });
+    std::size_t cells = 0;
+    for (std::size_t k = 0; k < pieces.size(); ++k) cells += k == 0 || pieces[k].key != pieces[k - 1].key ? 1 : 0;
+    keys_.reserve(cells);
+    sums_.reserve(cells);
+    begin_.reserve(cells + 1);
+    triangles_.reserve(pieces.size());
+    for (const Scratch::Piece& piece : pieces) {
+      if (keys_.empty() || keys_.back() != piece.key) {
+        keys_.push_back(piece.key);
+        sums_.emplace_back();
+        begin_.push_back(static_cast<std::uint32_t>(triangles_.size()));
+      }
+      sums_.back() += pieceSums[piece.sums];
+      triangles_.push_back(piece.triangle);
+    }
+    begin_.push_back(static_cast<std::uint32_t>(triangles_.size()));
+  }
+
+  Run all() const { return {0, static_cast<std::uint32_t>(keys_.size())}; }
+
+  // The run of the fine cells inside `cell` (inside the coarse cell, at most
+  // as deep as the fine cells), within `within` (a run holding it).
+  Run runOf(const Cell& cell, Run within) const {
+    const int depth = cell.depth - coarse_.depth;
+    const Vec3f local = (cell.lower() - coarse_.lower()) * std::ldexp(1.0f, cell.depth);  // exact: dyadic
+    const std::uint64_t code = mortonCode(static_cast<std::uint32_t>(local.x()), static_cast<std::uint32_t>(local.y()),
+                                          static_cast<std::uint32_t>(local.z()));
+    const int shift = 3 * (levels_ - depth);
+    const auto begin = keys_.begin() + within.first, stop = keys_.begin() + within.end;
+    const auto first = std::lower_bound(begin, stop, code << shift);
+    const auto end = std::lower_bound(first, stop, (code + 1) << shift);
+    return {static_cast<std::uint32_t>(first - keys_.begin()), static_cast<std::uint32_t>(end - keys_.begin())};
+  }
+
+  VariationSums sumsOf(Run run) const {
+    VariationSums sums;
+    for (std::uint32_t k = run.first; k < run.end; ++k) sums += sums_[k];
+    return sums;
+  }
+
+  // M's triangles in the run's cells (one fine cell, or none).
+  IdList trianglesOf(Run run) const {
+    if (run.first == run.end) return {};
+    return IdList(triangles_.begin() + begin_[run.first], triangles_.begin() + begin_[run.end]);
+  }
+
+ private:
+  // The grid coordinates at `depth` of the coarse cell's lower corner.
+  static std::array<int, 3> gridOrigin(const Cell& cell, int depth) {
+    const Vec3f lower = cell.lower() * std::ldexp(1.0f, depth);  // exact: dyadic
+    return {static_cast<int>(lower.x()), static_cast<int>(lower.y()), static_cast<int>(lower.z())};
+  }
+
+  Cell coarse_;
+  int levels_;
+  std::vector<std::uint64_t> keys_;
+  std::vector<VariationSums> sums_;
+  std::vector<std::uint32_t> begin_;  // per cell, into triangles_; one more at the end
+  std::vector<std::uint32_t> triangles_;
+};
+
 // ---- Global refinement below the coarse depth ------------------------------
 
 // A leaf of the growing tree with m's and M's primitives in its cell.
@@ -628,7 +781,9 @@ struct Leaf {
   std::uint32_t node = 0;
   Cell cell;
   IdList triangles;        // m's
-  IdList primitives;       // M's triangles (M a mesh)
+  IdList primitives;       // M's triangles (M a mesh), at or below the sum depth
+  const FineSums* fine = nullptr;  // M's triangles' sums (M a mesh), above the sum depth
+  FineSums::Run fineRun;
   PointOrder::Run points;  // M's points (M points)
   LeafError error;
   // Children its split would keep (those holding some of m): counted when
@@ -682,10 +837,11 @@ struct QueueEntry {
 
 class Refinement {
  public:
-  // `points`: M's points in order, when M is points.
+  // `points`: M's points in order, when M is points. `sumDepth`: the depth
+  // of FineSums' cells (leaves above it carry theirs), 0 when none.
   Refinement(const CoarseMesh& coarse, const DetailPrimitives& detail, const PointOrder* points,
-             const BuildSettings& settings)
-      : coarse_(coarse), detail_(detail), points_(points), settings_(settings) {}
+             const BuildSettings& settings, int sumDepth)
+      : coarse_(coarse), detail_(detail), points_(points), settings_(settings), sumDepth_(sumDepth) {}
 
   // Whether the leaf may split at all (before its split is evaluated).
   bool mayRefine(const Leaf& leaf) const {
@@ -702,7 +858,9 @@ class Refinement {
     for (int c = 0; c < 8; ++c)
       if (!childTriangles[c].empty()) candidate.mask |= static_cast<std::uint8_t>(1u << c);
     if (candidate.mask != 0) {
-      ChildErrors childErrors = points_ ? distributePoints(leaf, candidate.mask) : distributeTriangles(leaf, candidate.mask);
+      ChildErrors childErrors = points_      ? distributePoints(leaf, candidate.mask)
+                                : leaf.fine ? distributeFineSums(leaf, candidate.mask)
+                                            : distributeTriangles(leaf, candidate.mask);
       double childError = 0.0;
       for (int c = 0; c < 8; ++c) {
         if (!(candidate.mask & (1u << c))) continue;
@@ -711,6 +869,10 @@ class Refinement {
         child.triangles = std::move(childTriangles[c]);
         child.primitives = std::move(childErrors.primitives[c]);
         child.points = childErrors.points[c];
+        if (leaf.fine && child.cell.depth < sumDepth_) {
+          child.fine = leaf.fine;
+          child.fineRun = childErrors.fineRuns[c];
+        }
         child.error = childErrors.errors[c];
         if (mayRefine(child)) child.keptChildren = keptChildrenOf(child);  // only a leaf that may split is queued
         childError += child.error.ranked();
@@ -736,6 +898,9 @@ class Refinement {
   LeafError errorOf(const Leaf& leaf) const {
     if (points_)
       return leafErrorOf(points_->sumsOf(leaf.points), detail_.coarseKnown, settings_.deferToCoarse, mayBeTwoSided(leaf.cell));
+    if (leaf.fine)
+      return leafErrorOf(leaf.fine->sumsOf(leaf.fineRun), detail_.coarseKnown, settings_.deferToCoarse,
+                         mayBeTwoSided(leaf.cell));
     return errorInCell(detail_, leaf.primitives, leaf.cell, settings_.deferToCoarse, mayBeTwoSided(leaf.cell));
   }
 
@@ -759,6 +924,7 @@ class Refinement {
   // M's primitives in each kept child and the child's error.
   struct ChildErrors {
     std::array<IdList, 8> primitives;
+    std::array<FineSums::Run, 8> fineRuns;
     std::array<PointOrder::Run, 8> points;
     std::array<LeafError, 8> errors;
   };
@@ -771,6 +937,21 @@ class Refinement {
         out.points[c] = points_->runOf(child, leaf.points);
         out.errors[c] = leafErrorOf(points_->sumsOf(out.points[c]), detail_.coarseKnown, settings_.deferToCoarse,
                                     mayBeTwoSided(child));
+      }
+    return out;
+  }
+
+  // Above the sum depth, the children's sums are their fine cells'; a child
+  // at that depth takes its fine cell's triangles, to be clipped below it.
+  ChildErrors distributeFineSums(const Leaf& leaf, std::uint8_t mask) const {
+    ChildErrors out;
+    for (int c = 0; c < 8; ++c)
+      if (mask & (1u << c)) {
+        const Cell child = leaf.cell.child(c);
+        out.fineRuns[c] = leaf.fine->runOf(child, leaf.fineRun);
+        out.errors[c] = leafErrorOf(leaf.fine->sumsOf(out.fineRuns[c]), detail_.coarseKnown, settings_.deferToCoarse,
+                                    mayBeTwoSided(child));
+        if (child.depth == sumDepth_) out.primitives[c] = leaf.fine->trianglesOf(out.fineRuns[c]);
       }
     return out;
   }
@@ -806,6 +987,7 @@ class Refinement {
   const DetailPrimitives& detail_;
   const PointOrder* points_;
   const BuildSettings& settings_;
+  int sumDepth_;
 };
 
 // Texels the encoding of the octree as it stands takes: the completion grid,
@@ -1045,13 +1227,24 @@ class FinishedLeaves {
 class GlobalRefinement {
  public:
   GlobalRefinement(const CoarseMesh& coarse, const DetailPrimitives& detail, const PointOrder* points,
-                   const BuildSettings& settings, std::vector<OctreeNode>& nodes, RefinementOutcome& outcome)
-      : detail_(detail), settings_(settings), refinement_(coarse, detail, points, settings), nodes_(nodes), outcome_(outcome),
-        finished_(settings.maxDepth) {}
+                   const BuildSettings& settings, int sumDepth, std::vector<OctreeNode>& nodes, RefinementOutcome& outcome)
+      : detail_(detail), settings_(settings), sumDepth_(sumDepth), refinement_(coarse, detail, points, settings, sumDepth),
+        nodes_(nodes), outcome_(outcome), finished_(settings.maxDepth) {}
 
-  // The coarse cells, their errors computed in parallel.
+  // The coarse cells, their errors computed in parallel (from their fine
+  // cells' sums, below which M's triangles are then clipped, when the sum
+  // depth is below them).
   void start(std::vector<Leaf> leaves) {
+    fineSums_.resize(leaves.size());
+    tbb::enumerable_thread_specific<FineSums::Scratch> scratch;
     tbb::parallel_for(std::size_t{0}, leaves.size(), [&](std::size_t i) {
+      Leaf& leaf = leaves[i];
+      if (sumDepth_ > leaf.cell.depth) {
+        const FineSums& fine = fineSums_[i].emplace(detail_, leaf.primitives, leaf.cell, sumDepth_, scratch.local());
+        leaf.fine = &fine;
+        leaf.fineRun = fine.all();
+        IdList().swap(leaf.primitives);
+      }
       leaves[i].error = refinement_.errorOf(leaves[i]);
       if (refinement_.mayRefine(leaves[i])) leaves[i].keptChildren = refinement_.keptChildrenOf(leaves[i]);
     });
@@ -1167,7 +1360,9 @@ class GlobalRefinement {
 
   const DetailPrimitives& detail_;
   const BuildSettings& settings_;
+  int sumDepth_;
   const Refinement refinement_;
+  std::vector<std::optional<FineSums>> fineSums_;  // per coarse cell, with a sum depth
   std::vector<OctreeNode>& nodes_;
   RefinementOutcome& outcome_;
   FinishedLeaves finished_;
@@ -1177,6 +1372,22 @@ class GlobalRefinement {
 };
 
 }  // namespace
+
+int sumDepthFor(const DetailPrimitives& detail, const BuildSettings& settings) {
+  if (detail.triangles.empty() || settings.sumDepth == 0) return 0;
+  int depth = settings.sumDepth;
+  if (depth < 0) {
+    double longest = 0.0;
+    for (const DetailTriangle& t : detail.triangles) {
+      const Bounds b = triangleBounds(t.corners[0], t.corners[1], t.corners[2]);
+      longest += (b.hi - b.lo).maxCoeff();
+    }
+    const double mean = longest / static_cast<double>(detail.triangles.size());
+    depth = mean > 0.0 ? static_cast<int>(std::floor(std::log2(1.0 / (kSumCellOverTriangle * mean)))) : settings.maxDepth;
+  }
+  depth = std::min(depth, settings.maxDepth);
+  return depth > settings.coarseDepth ? depth : 0;
+}
 
 BuiltOctree buildOctree(const CoarseMesh& coarse, const DetailPrimitives& detail, const BuildSettings& settings) {
   const int depth = settings.coarseDepth;
@@ -1218,7 +1429,9 @@ BuiltOctree buildOctree(const CoarseMesh& coarse, const DetailPrimitives& detail
   // copying the nodes into ever larger fresh memory (40 MB for the 1.2M
   // bunny); pages reserved but never used are never touched.
   if (settings.budgetTexels > 0) nodes.reserve(std::max<std::size_t>(nodes.size(), settings.budgetTexels));
-  GlobalRefinement refinement(coarse, detail, pointOrder ? &*pointOrder : nullptr, settings, nodes, outcome);
+  outcome.sumDepth = sumDepthFor(detail, settings);
+  GlobalRefinement refinement(coarse, detail, pointOrder ? &*pointOrder : nullptr, settings, outcome.sumDepth, nodes,
+                              outcome);
   refinement.start(std::move(first));
   const bool budgetReached = refinement.run();
   outcome.stoppedBy = budgetReached ? "budget" : settings.error > 0.0 ? "error" : "converged";

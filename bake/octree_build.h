@@ -94,6 +94,11 @@ struct BuildSettings {
   // (OctreeNode::twoSided) where that leaves far less error; needs m's
   // normals (DetailPrimitives::coarseKnown).
   bool twoSidedLeaves = false;
+  // M's triangles are clipped once into the cells of this depth, whose sums
+  // the cells above add up (clipped level by level below it); -1: the
+  // deepest level whose cells are twice as wide as M's triangles
+  // (sumDepthFor); at most coarseDepth: level by level from the coarse depth.
+  int sumDepth = -1;
 };
 
 // A leaf whose normals deviate from their mean by less than this (root mean
@@ -110,6 +115,7 @@ struct RefinementOutcome {
   std::uint64_t leavesShowingCoarse = 0;  // leaves that show m's own normal (deferToCoarse)
   std::uint64_t twoSidedLeaves = 0;       // leaves that show one normal per side of m
   std::uint64_t leavesAtMaxDepth = 0;
+  int sumDepth = 0;                       // where M's triangles were summed (sumDepthFor), 0: level by level
   // Root mean square deviation of M's normals from their leaf's mean, in degrees.
   double rmsDegrees() const;
 };
@@ -129,6 +135,11 @@ struct BuiltOctree {
 // interpolated normal and n_C the unit mean normal, over M's mean triangle
 // area; for points, the sum of w_i |n_i - n_C|^2.
 double normalVariation(const DetailPrimitives& detail, const std::vector<std::uint32_t>& primitives, const Cell& cell);
+
+// The depth at which buildOctree clips M's triangles once (BuildSettings::
+// sumDepth resolved); 0 when it clips them level by level (M points, or
+// triangles as large as the coarse cells).
+int sumDepthFor(const DetailPrimitives& detail, const BuildSettings& settings);
 
 // Complete to settings.coarseDepth around m, then refined globally as
 // BuildSettings says, down to settings.maxDepth; only children that

@@ -20,7 +20,8 @@ std::string bakeReportJson(const BakeReport& r) {
                         {"leaves_showing_m", f.leavesShowingCoarse},
                         {"two_sided_leaves", f.twoSidedLeaves},
                         {"internal_nodes_showing_m", f.internalNodesShowingCoarse},
-                        {"leaves_at_max_depth", f.leavesAtMaxDepth}};
+                        {"leaves_at_max_depth", f.leavesAtMaxDepth},
+                        {"sum_depth", f.sumDepth}};
   json["sampling"] = {{"rays", r.rays}, {"samples_hit", r.hits}, {"samples_fallback", r.fallbacks}};
   json["texture"] = {{"width", r.textureWidth}, {"height", r.textureHeight}, {"bytes", r.textureBytes}};
   if (r.n3tree) {

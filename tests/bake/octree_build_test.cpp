@@ -377,6 +377,72 @@ TEST(BuildOctreeWithABudget, PointsReportTheLeavesErrorAndEachPointOnce) {
   EXPECT_GT(std::count(leavesHolding.begin(), leavesHolding.end(), 1), 0.995 * static_cast<double>(leavesHolding.size()));
 }
 
+// M's triangles clipped once into the cells of a fine depth, whose sums the
+// shallower cells add up (FineSums), against the same tree built clipping
+// them level by level: the same tree, and the leaves' error the brute-force
+// L2,1 of each leaf over all of M, above, at and below the sum depth.
+TEST(BuildOctreeWithABudget, SumsAddedUpFromFineCellsGiveTheLevelByLevelTree) {
+  const SphereCase c = bumpySphereCase();
+  BuildSettings levelByLevel = budgetSettings(20000);
+  levelByLevel.sumDepth = 0;
+  const BuiltOctree reference = buildOctree(c.coarse, c.detail, levelByLevel);
+  EXPECT_EQ(reference.refinement.sumDepth, 0);
+  for (const int sumDepth : {4, 6, 7}) {
+    BuildSettings settings = levelByLevel;
+    settings.sumDepth = sumDepth;
+    const BuiltOctree built = buildOctree(c.coarse, c.detail, settings);
+    EXPECT_EQ(built.refinement.sumDepth, sumDepth);
+    ASSERT_EQ(built.octree.nodes.size(), reference.octree.nodes.size()) << "sum depth " << sumDepth;
+    for (std::size_t n = 0; n < built.octree.nodes.size(); ++n)
+      ASSERT_EQ(built.octree.nodes[n].childMask, reference.octree.nodes[n].childMask) << "node " << n;
+    const double error = totalLeafError(c, built.octree);
+    EXPECT_NEAR(built.refinement.error, error, 1e-6 * error) << "sum depth " << sumDepth;
+    EXPECT_NEAR(built.refinement.area, reference.refinement.area, 1e-9 * reference.refinement.area);
+  }
+}
+
+// A flat grid of right triangles whose legs are 1/256 of the cube: their
+// longest side along an axis is 1/256, and the deepest cells at least twice
+// as wide are those of depth 7 (1/128).
+TEST(SumDepthFor, DeepestCellsTwiceAsWideAsMsTriangles) {
+  std::vector<Vec3f> positions, normals;
+  std::vector<Triangle> triangles;
+  constexpr int kSide = 64;
+  constexpr float kLeg = 1.0f / 256.0f;
+  for (int i = 0; i <= kSide; ++i)
+    for (int j = 0; j <= kSide; ++j) {
+      positions.emplace_back(0.25f + kLeg * static_cast<float>(i), 0.25f + kLeg * static_cast<float>(j), 0.5f);
+      normals.emplace_back(0.0f, 0.0f, 1.0f);
+    }
+  const auto at = [](int i, int j) { return static_cast<std::uint32_t>(i * (kSide + 1) + j); };
+  for (int i = 0; i < kSide; ++i)
+    for (int j = 0; j < kSide; ++j) {
+      triangles.push_back({at(i, j), at(i + 1, j), at(i + 1, j + 1)});
+      triangles.push_back({at(i, j), at(i + 1, j + 1), at(i, j + 1)});
+    }
+  const DetailPrimitives grid = DetailPrimitives::ofMesh(positions, triangles, normals, 1.0);
+  BuildSettings settings;
+  settings.coarseDepth = 3;
+  settings.maxDepth = 13;
+  EXPECT_EQ(sumDepthFor(grid, settings), 7);
+  settings.maxDepth = 6;
+  EXPECT_EQ(sumDepthFor(grid, settings), 6) << "never below the maximum depth";
+  settings.maxDepth = 13;
+  settings.coarseDepth = 7;
+  EXPECT_EQ(sumDepthFor(grid, settings), 0) << "not below the coarse depth: level by level";
+  settings.coarseDepth = 3;
+  settings.sumDepth = 5;
+  EXPECT_EQ(sumDepthFor(grid, settings), 5) << "as asked";
+  settings.sumDepth = 0;
+  EXPECT_EQ(sumDepthFor(grid, settings), 0) << "as asked";
+  DetailPrimitives points;
+  points.positions = {Vec3f::Constant(0.5f)};
+  points.normals = {Vec3f::UnitZ()};
+  points.weights = {1.0f};
+  settings.sumDepth = -1;
+  EXPECT_EQ(sumDepthFor(points, settings), 0) << "points are never clipped";
+}
+
 TEST(BuildOctree, SameTreeWithOneOrTwoThreads) {
   const SphereCase c = bumpySphereCase();
   const auto build = [&](int threads) {
