@@ -823,16 +823,71 @@ struct Candidate {
 // A queued candidate's place in the splitting order, kept beside its index so
 // that ordering the queue reads no candidate: the most value per texel
 // first, then the node index (deterministic ties).
+// 16 bytes: four to a cache line.
 struct QueueEntry {
-  bool evaluated = false;
   double valuePerTexel = 0.0;  // unevaluated: an upper bound
-  std::uint32_t node = 0, candidate = 0;
+  std::uint32_t node = 0;
+  std::uint32_t slot = 0;  // the candidate's slot, and kEvaluated
 
-  // The heap's order: true when `a` comes after `b`.
+  static constexpr std::uint32_t kEvaluated = 1u << 31;
+  bool evaluated() const { return (slot & kEvaluated) != 0; }
+  std::uint32_t candidate() const { return slot & ~kEvaluated; }
+
+  // The queue's order: true when `a` comes after `b`.
   static bool after(const QueueEntry& a, const QueueEntry& b) {
     if (a.valuePerTexel != b.valuePerTexel) return a.valuePerTexel < b.valuePerTexel;
     return a.node > b.node;
   }
+};
+
+// The candidates in splitting order: a heap with four children to a node.
+// A round pops and pushes hundreds of thousands of entries on one thread
+// while the other core waits; a binary heap of them (std::push_heap) spent
+// twice the levels, each a cache miss (docs/benchmarks.md).
+class SplitQueue {
+ public:
+  bool empty() const { return heap_.empty(); }
+  std::size_t size() const { return heap_.size(); }
+  // In no particular order.
+  const std::vector<QueueEntry>& entries() const { return heap_; }
+  void clear() { heap_.clear(); }
+
+  void push(const QueueEntry& entry) {
+    std::size_t at = heap_.size();
+    heap_.push_back(entry);
+    while (at > 0) {
+      const std::size_t parent = (at - 1) / kArity;
+      if (!QueueEntry::after(heap_[parent], entry)) break;
+      heap_[at] = heap_[parent];
+      at = parent;
+    }
+    heap_[at] = entry;
+  }
+
+  QueueEntry pop() {
+    const QueueEntry top = heap_.front();
+    const QueueEntry last = heap_.back();
+    heap_.pop_back();
+    const std::size_t n = heap_.size();
+    if (n == 0) return top;
+    std::size_t at = 0;
+    for (;;) {
+      const std::size_t first = kArity * at + 1;
+      if (first >= n) break;
+      std::size_t best = first;
+      for (std::size_t c = first + 1; c < std::min(first + kArity, n); ++c)
+        if (QueueEntry::after(heap_[best], heap_[c])) best = c;
+      if (!QueueEntry::after(last, heap_[best])) break;
+      heap_[at] = heap_[best];
+      at = best;
+    }
+    heap_[at] = last;
+    return top;
+  }
+
+ private:
+  static constexpr std::size_t kArity = 4;
+  std::vector<QueueEntry> heap_;
 };
 
 class Refinement {
@@ -1259,7 +1314,7 @@ class GlobalRefinement {
     // The coarse levels alone may exceed the budget: then nothing splits.
     bool budgetReached = budgeted && outcome_.texels > settings_.budgetTexels;
     while (!queue_.empty() && !budgetReached) budgetReached = round(budgeted);
-    for (const QueueEntry& entry : queue_) finished_.add(std::move(slots_[entry.candidate].leaf), outcome_);
+    for (const QueueEntry& entry : queue_.entries()) finished_.add(std::move(slots_[entry.candidate()].leaf), outcome_);
     queue_.clear();
     return budgetReached;
   }
@@ -1275,11 +1330,9 @@ class GlobalRefinement {
     bool budgetReached = false;
     const std::size_t count = roundSize(queue_.size(), budgeted);
     for (std::size_t k = 0; k < count && !queue_.empty(); ++k) {
-      std::pop_heap(queue_.begin(), queue_.end(), QueueEntry::after);
-      const QueueEntry entry = queue_.back();
-      queue_.pop_back();
-      Candidate candidate = take(entry.candidate);
-      if (!entry.evaluated) {
+      const QueueEntry entry = queue_.pop();
+      Candidate candidate = take(entry.candidate());
+      if (!entry.evaluated()) {
         toEvaluate.push_back(std::move(candidate));
         continue;
       }
@@ -1338,8 +1391,8 @@ class GlobalRefinement {
     // leaves but lost 2-4% of the accuracy on bunny00.
     const int texelsAtLeast = 2 - static_cast<int>(error.texels()) + std::max(1, candidate.leaf.keptChildren);
     const double key = evaluated ? candidate.valuePerTexel() : error.variation / static_cast<double>(texelsAtLeast);
-    queue_.push_back({evaluated, key, candidate.leaf.node, put(std::move(candidate))});
-    std::push_heap(queue_.begin(), queue_.end(), QueueEntry::after);
+    const std::uint32_t node = candidate.leaf.node;
+    queue_.push({key, node, put(std::move(candidate)) | (evaluated ? QueueEntry::kEvaluated : 0u)});
   }
 
   // Candidates live in reused slots: the queue holds only their keys.
@@ -1368,7 +1421,7 @@ class GlobalRefinement {
   FinishedLeaves finished_;
   std::deque<Candidate> slots_;  // a deque: growing it moves no candidate
   std::vector<std::uint32_t> freeSlots_;
-  std::vector<QueueEntry> queue_;  // a heap, first to split on top
+  SplitQueue queue_;
 };
 
 }  // namespace
