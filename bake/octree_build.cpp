@@ -1230,7 +1230,9 @@ namespace {
 // 1.2M bunny's build.)
 class FinishedLeaves {
  public:
-  FinishedLeaves(int maxDepth) : maxDepth_(maxDepth) {}
+  // `leavesAtMost`: a bound of the leaves to come (0: none known), so that
+  // the records are never copied into larger fresh memory as they come.
+  FinishedLeaves(int maxDepth, std::size_t leavesAtMost) : maxDepth_(maxDepth) { records_.reserve(leavesAtMost); }
 
   void add(Leaf&& leaf, RefinementOutcome& outcome) {
     outcome.error += leaf.error.shown();
@@ -1288,7 +1290,7 @@ class GlobalRefinement {
   GlobalRefinement(const CoarseMesh& coarse, const DetailPrimitives& detail, const PointOrder* points,
                    const BuildSettings& settings, int sumDepth, std::vector<OctreeNode>& nodes, RefinementOutcome& outcome)
       : detail_(detail), settings_(settings), sumDepth_(sumDepth), refinement_(coarse, detail, points, settings, sumDepth),
-        nodes_(nodes), outcome_(outcome), finished_(settings.maxDepth) {}
+        nodes_(nodes), outcome_(outcome), finished_(settings.maxDepth, settings.budgetTexels) {}
 
   // The coarse cells, their errors computed in parallel (from their fine
   // cells' sums, below which M's triangles are then clipped, when the sum
@@ -1337,7 +1339,8 @@ class GlobalRefinement {
     // of the 1.2M bunny's build). Each result lands at its leaf's index, and
     // is read only after the wait: the round is the same on any number of
     // threads. Reserved: no batch may see its leaves move.
-    std::vector<Candidate> toEvaluate;
+    std::vector<Candidate>& toEvaluate = toEvaluate_;
+    toEvaluate.clear();
     toEvaluate.reserve(count);
     Candidate* const evaluated = toEvaluate.data();
     tbb::task_group evaluations;
@@ -1442,6 +1445,9 @@ class GlobalRefinement {
   std::deque<Candidate> slots_;  // a deque: growing it moves no candidate
   std::vector<std::uint32_t> freeSlots_;
   SplitQueue queue_;
+  // A round's leaves to evaluate; kept from round to round, as fresh memory
+  // for each cost the kernel's zeroing of its pages.
+  std::vector<Candidate> toEvaluate_;
 };
 
 }  // namespace
