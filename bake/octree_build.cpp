@@ -654,6 +654,13 @@ class PointOrder {
 // three depths on both the bunny (8) and the 7.2M torus (9)
 // (docs/benchmarks.md, "M's triangles clipped once at a fine depth").
 constexpr double kSumCellOverTriangle = 2.0;
+// Where M's triangles differ in size (a few large ones, a floor under a
+// scanned object, among many small ones), the depth the mean picks would
+// cut the large ones into many pieces: the sum depth rises until the
+// triangles' pieces there are at most this many per triangle, twice what
+// triangles of one size give at the chosen depth ((1 + 1/2)^2; the bunny
+// 2.25, the torus 2.09, estimated as sumDepthFor does; 2.3 counted).
+constexpr double kMostPiecesPerTriangle = 4.5;
 
 // The cells of depth `sumDepth` inside one coarse cell that M's triangles
 // meet, in Morton order within the coarse cell: for each, the L2,1 sums of
@@ -1456,13 +1463,25 @@ int sumDepthFor(const DetailPrimitives& detail, const BuildSettings& settings) {
   if (detail.triangles.empty() || settings.sumDepth == 0) return 0;
   int depth = settings.sumDepth;
   if (depth < 0) {
-    double longest = 0.0;
+    // Sums of each triangle's longest side along an axis, and of its square.
+    double sides = 0.0, squares = 0.0;
     for (const DetailTriangle& t : detail.triangles) {
       const Bounds b = triangleBounds(t.corners[0], t.corners[1], t.corners[2]);
-      longest += (b.hi - b.lo).maxCoeff();
+      const double side = (b.hi - b.lo).maxCoeff();
+      sides += side;
+      squares += side * side;
     }
-    const double mean = longest / static_cast<double>(detail.triangles.size());
+    const double count = static_cast<double>(detail.triangles.size());
+    const double mean = sides / count;
     depth = mean > 0.0 ? static_cast<int>(std::floor(std::log2(1.0 / (kSumCellOverTriangle * mean)))) : settings.maxDepth;
+    depth = std::min(depth, settings.maxDepth);
+    // The cells a triangle of side e meets at depth d, on a surface: about
+    // (1 + e 2^d)^2.
+    const auto piecesPerTriangle = [&](int d) {
+      const double cellsPerUnit = std::ldexp(1.0, d);
+      return 1.0 + 2.0 * cellsPerUnit * sides / count + cellsPerUnit * cellsPerUnit * squares / count;
+    };
+    while (depth > settings.coarseDepth && piecesPerTriangle(depth) > kMostPiecesPerTriangle) --depth;
   }
   depth = std::min(depth, settings.maxDepth);
   return depth > settings.coarseDepth ? depth : 0;

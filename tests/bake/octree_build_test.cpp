@@ -401,26 +401,32 @@ TEST(BuildOctreeWithABudget, SumsAddedUpFromFineCellsGiveTheLevelByLevelTree) {
   }
 }
 
-// A flat grid of right triangles whose legs are 1/256 of the cube: their
-// longest side along an axis is 1/256, and the deepest cells at least twice
-// as wide are those of depth 7 (1/128).
-TEST(SumDepthFor, DeepestCellsTwiceAsWideAsMsTriangles) {
+// A flat grid of n x n squares of side `leg`, two right triangles each, at
+// height z, plus M's normals (all +z).
+DetailPrimitives flatGrid(int n, float leg, float z, DetailPrimitives grid = {}) {
   std::vector<Vec3f> positions, normals;
   std::vector<Triangle> triangles;
-  constexpr int kSide = 64;
-  constexpr float kLeg = 1.0f / 256.0f;
-  for (int i = 0; i <= kSide; ++i)
-    for (int j = 0; j <= kSide; ++j) {
-      positions.emplace_back(0.25f + kLeg * static_cast<float>(i), 0.25f + kLeg * static_cast<float>(j), 0.5f);
+  for (int i = 0; i <= n; ++i)
+    for (int j = 0; j <= n; ++j) {
+      positions.emplace_back(0.25f + leg * static_cast<float>(i), 0.25f + leg * static_cast<float>(j), z);
       normals.emplace_back(0.0f, 0.0f, 1.0f);
     }
-  const auto at = [](int i, int j) { return static_cast<std::uint32_t>(i * (kSide + 1) + j); };
-  for (int i = 0; i < kSide; ++i)
-    for (int j = 0; j < kSide; ++j) {
+  const auto at = [&](int i, int j) { return static_cast<std::uint32_t>(i * (n + 1) + j); };
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
       triangles.push_back({at(i, j), at(i + 1, j), at(i + 1, j + 1)});
       triangles.push_back({at(i, j), at(i + 1, j + 1), at(i, j + 1)});
     }
-  const DetailPrimitives grid = DetailPrimitives::ofMesh(positions, triangles, normals, 1.0);
+  DetailPrimitives added = DetailPrimitives::ofMesh(positions, triangles, normals, 1.0);
+  grid.triangles.insert(grid.triangles.end(), added.triangles.begin(), added.triangles.end());
+  return grid;
+}
+
+// Right triangles whose legs are 1/256 of the cube: their longest side
+// along an axis is 1/256, and the deepest cells at least twice as wide are
+// those of depth 7 (1/128).
+TEST(SumDepthFor, DeepestCellsTwiceAsWideAsMsTriangles) {
+  const DetailPrimitives grid = flatGrid(64, 1.0f / 256.0f, 0.5f);
   BuildSettings settings;
   settings.coarseDepth = 3;
   settings.maxDepth = 13;
@@ -441,6 +447,21 @@ TEST(SumDepthFor, DeepestCellsTwiceAsWideAsMsTriangles) {
   points.weights = {1.0f};
   settings.sumDepth = -1;
   EXPECT_EQ(sumDepthFor(points, settings), 0) << "points are never clipped";
+}
+
+// 32,768 triangles of side 1/600 (the mean alone picks depth 8, cells of
+// 1/256) and 32 triangles of side 1/4: at depth 8 these would be cut into
+// 64^2 pieces each, 6.2 per triangle on average, over the 4.5 allowed; at
+// depth 7, 2.5.
+TEST(SumDepthFor, AFewLargeTrianglesAmongSmallOnesRaiseIt) {
+  BuildSettings settings;
+  settings.coarseDepth = 3;
+  settings.maxDepth = 13;
+  const DetailPrimitives small = flatGrid(128, 1.0f / 600.0f, 0.5f);
+  EXPECT_EQ(sumDepthFor(small, settings), 8);
+  const DetailPrimitives mixed = flatGrid(4, 0.25f, 0.6f, small);
+  ASSERT_EQ(mixed.triangles.size(), small.triangles.size() + 32);
+  EXPECT_EQ(sumDepthFor(mixed, settings), 7);
 }
 
 TEST(BuildOctree, SameTreeWithOneOrTwoThreads) {
