@@ -674,8 +674,8 @@ class FineSums {
   };
 
   // Each piece of a triangle in a fine cell, summed alone; reused from one
-  // coarse cell to the next on a thread (fresh memory for each cost more
-  // than the clipping: docs/benchmarks.md).
+  // coarse cell to the next on a thread (the bunny's coarse cells hold about
+  // 870 pieces each, 160 KB, which fresh memory would fault in anew each time).
   struct Scratch {
     struct Piece {
       std::uint64_t key;
@@ -687,56 +687,8 @@ class FineSums {
 
   FineSums(const DetailPrimitives& d, const IdList& triangles, const Cell& coarseCell, int sumDepth, Scratch& scratch)
       : coarse_(coarseCell), levels_(sumDepth - coarseCell.depth) {
-    // The pieces are added up in (cell, triangle) order: the sums do not
-    // depend on the order of `triangles`.
-    std::vector<Scratch::Piece>& pieces = scratch.pieces;
-    std::vector<VariationSums>& pieceSums = scratch.sums;
-    pieces.clear();
-    pieceSums.clear();
-    const int cellsPerAxis = 1 << sumDepth;
-    const std::array<int, 3> origin = gridOrigin(coarseCell, sumDepth);
-    const int side = 1 << levels_;
-    for (const std::uint32_t t : triangles) {
-      const MetricTriangle triangle(d, d.triangles[t]);
-      const GridRange range = gridRange(triangle.bounds(), cellsPerAxis);
-      std::array<int, 3> first{}, last{};
-      for (int axis = 0; axis < 3; ++axis) {
-        first[axis] = std::max(range.first[axis], origin[axis]);
-        last[axis] = std::min(range.last[axis], origin[axis] + side - 1);
-      }
-      for (int x = first[0]; x <= last[0]; ++x)
-        for (int y = first[1]; y <= last[1]; ++y)
-          for (int z = first[2]; z <= last[2]; ++z) {
-            VariationSums& sums = pieceSums.emplace_back();
-            if (!addTriangleInCell(triangle, gridCell(gridKey(x, y, z, sumDepth), sumDepth), sums)) {
-              pieceSums.pop_back();
-              continue;
-            }
-            const std::uint64_t key = mortonCode(static_cast<std::uint32_t>(x - origin[0]),
-                                                 static_cast<std::uint32_t>(y - origin[1]),
-                                                 static_cast<std::uint32_t>(z - origin[2]));
-            pieces.push_back({key, t, static_cast<std::uint32_t>(pieceSums.size() - 1)});
-          }
-    }
-    std::sort(pieces.begin(), pieces.end(), [](const Scratch::Piece& a, const Scratch::Piece& b) {
-      return a.key != b.key ? a.key < b.key : a.triangle < b.triangle;
-    });
-    std::size_t cells = 0;
-    for (std::size_t k = 0; k < pieces.size(); ++k) cells += k == 0 || pieces[k].key != pieces[k - 1].key ? 1 : 0;
-    keys_.reserve(cells);
-    sums_.reserve(cells);
-    begin_.reserve(cells + 1);
-    triangles_.reserve(pieces.size());
-    for (const Scratch::Piece& piece : pieces) {
-      if (keys_.empty() || keys_.back() != piece.key) {
-        keys_.push_back(piece.key);
-        sums_.emplace_back();
-        begin_.push_back(static_cast<std::uint32_t>(triangles_.size()));
-      }
-      sums_.back() += pieceSums[piece.sums];
-      triangles_.push_back(piece.triangle);
-    }
-    begin_.push_back(static_cast<std::uint32_t>(triangles_.size()));
+    clipIntoFineCells(d, triangles, sumDepth, scratch);
+    addUpByCell(scratch);
   }
 
   Run all() const { return {0, static_cast<std::uint32_t>(keys_.size())}; }
@@ -768,6 +720,63 @@ class FineSums {
   }
 
  private:
+  // Every triangle's pieces in the fine cells its box meets (a cell it only
+  // touches takes none), with their sums.
+  void clipIntoFineCells(const DetailPrimitives& d, const IdList& triangles, int sumDepth, Scratch& scratch) const {
+    scratch.pieces.clear();
+    scratch.sums.clear();
+    const int cellsPerAxis = 1 << sumDepth;
+    const std::array<int, 3> origin = gridOrigin(coarse_, sumDepth);
+    const int side = 1 << levels_;
+    for (const std::uint32_t t : triangles) {
+      const MetricTriangle triangle(d, d.triangles[t]);
+      const GridRange range = gridRange(triangle.bounds(), cellsPerAxis);
+      std::array<int, 3> first{}, last{};
+      for (int axis = 0; axis < 3; ++axis) {
+        first[axis] = std::max(range.first[axis], origin[axis]);
+        last[axis] = std::min(range.last[axis], origin[axis] + side - 1);
+      }
+      for (int x = first[0]; x <= last[0]; ++x)
+        for (int y = first[1]; y <= last[1]; ++y)
+          for (int z = first[2]; z <= last[2]; ++z) {
+            VariationSums& sums = scratch.sums.emplace_back();
+            if (!addTriangleInCell(triangle, gridCell(gridKey(x, y, z, sumDepth), sumDepth), sums)) {
+              scratch.sums.pop_back();
+              continue;
+            }
+            const std::uint64_t key = mortonCode(static_cast<std::uint32_t>(x - origin[0]),
+                                                 static_cast<std::uint32_t>(y - origin[1]),
+                                                 static_cast<std::uint32_t>(z - origin[2]));
+            scratch.pieces.push_back({key, t, static_cast<std::uint32_t>(scratch.sums.size() - 1)});
+          }
+    }
+  }
+
+  // The pieces grouped by cell and added up in (cell, triangle) order: the
+  // sums do not depend on the order the triangles came in.
+  void addUpByCell(Scratch& scratch) {
+    std::vector<Scratch::Piece>& pieces = scratch.pieces;
+    std::sort(pieces.begin(), pieces.end(), [](const Scratch::Piece& a, const Scratch::Piece& b) {
+      return a.key != b.key ? a.key < b.key : a.triangle < b.triangle;
+    });
+    std::size_t cells = 0;
+    for (std::size_t k = 0; k < pieces.size(); ++k) cells += k == 0 || pieces[k].key != pieces[k - 1].key ? 1 : 0;
+    keys_.reserve(cells);
+    sums_.reserve(cells);
+    begin_.reserve(cells + 1);
+    triangles_.reserve(pieces.size());
+    for (const Scratch::Piece& piece : pieces) {
+      if (keys_.empty() || keys_.back() != piece.key) {
+        keys_.push_back(piece.key);
+        sums_.emplace_back();
+        begin_.push_back(static_cast<std::uint32_t>(triangles_.size()));
+      }
+      sums_.back() += scratch.sums[piece.sums];
+      triangles_.push_back(piece.triangle);
+    }
+    begin_.push_back(static_cast<std::uint32_t>(triangles_.size()));
+  }
+
   // The grid coordinates at `depth` of the coarse cell's lower corner.
   static std::array<int, 3> gridOrigin(const Cell& cell, int depth) {
     const Vec3f lower = cell.lower() * std::ldexp(1.0f, depth);  // exact: dyadic
