@@ -312,11 +312,9 @@ Result<Bake> bakeWith(const DetailSurface& detail, const CoarseSurface& coarseSu
   report.refinement = refinementReport(built.refinement, options);
   built.octree.transform = transform;
   report.seconds.build = phase.seconds();
-  if (built.refinement.sumDepth > 0)
-    spdlog::info("bake: octree of {} nodes built in {:.2f} s (M's triangles clipped once at depth {})",
-                 built.octree.nodes.size(), report.seconds.build, built.refinement.sumDepth);
-  else
-    spdlog::info("bake: octree of {} nodes built in {:.2f} s", built.octree.nodes.size(), report.seconds.build);
+  const int sumDepth = built.refinement.sumDepth;
+  spdlog::info("bake: octree of {} nodes built in {:.2f} s{}", built.octree.nodes.size(), report.seconds.build,
+               sumDepth > 0 ? fmt::format(" (M's triangles clipped once at depth {})", sumDepth) : std::string());
 
   reportProgress(onProgress, kSamplingStart);
   phase = Stopwatch();

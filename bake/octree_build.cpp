@@ -570,13 +570,25 @@ std::uint64_t mortonCode(std::uint32_t x, std::uint32_t y, std::uint32_t z) {
   return spreadBits(x) << 2 | spreadBits(y) << 1 | spreadBits(z);
 }
 
-// The key range [first, end) of the points in a cell.
-std::pair<std::uint64_t, std::uint64_t> keyRangeOf(const Cell& cell) {
-  const Vec3f lower = cell.lower() * std::ldexp(1.0f, cell.depth);  // exact: dyadic
-  const int shift = 3 * (kPointKeyDepth - cell.depth);
-  const std::uint64_t code = mortonCode(static_cast<std::uint32_t>(lower.x()), static_cast<std::uint32_t>(lower.y()),
-                                        static_cast<std::uint32_t>(lower.z()));
-  return {code << shift, (code + 1) << shift};
+// Positions [first, end) of a sorted key array: the points in a cell (in
+// PointOrder), M's fine cells in a cell (in FineSums).
+struct KeyRun {
+  std::uint32_t first = 0, end = 0;
+};
+
+// The run of `keys` (Morton codes of the cells of depth `keyDepth`, counted
+// from the lower corner of `frame`, a cell holding `cell`) inside `cell`,
+// within `within` (a run holding it).
+KeyRun runOfCell(const std::vector<std::uint64_t>& keys, const Cell& cell, const Cell& frame, int keyDepth,
+                 KeyRun within) {
+  const Vec3f corner = (cell.lower() - frame.lower()) * std::ldexp(1.0f, cell.depth);  // exact: dyadic
+  const std::uint64_t code = mortonCode(static_cast<std::uint32_t>(corner.x()), static_cast<std::uint32_t>(corner.y()),
+                                        static_cast<std::uint32_t>(corner.z()));
+  const int shift = 3 * (keyDepth - cell.depth);
+  const auto begin = keys.begin() + within.first, stop = keys.begin() + within.end;
+  const auto first = std::lower_bound(begin, stop, code << shift);
+  const auto end = std::lower_bound(first, stop, (code + 1) << shift);
+  return {static_cast<std::uint32_t>(first - keys.begin()), static_cast<std::uint32_t>(end - keys.begin())};
 }
 
 // A point on a face between two cells belongs to the lower one, as in the
@@ -591,11 +603,6 @@ std::uint64_t pointKey(const Vec3f& p) {
 
 class PointOrder {
  public:
-  // Positions [first, end) of the order.
-  struct Run {
-    std::uint32_t first = 0, end = 0;
-  };
-
   explicit PointOrder(const DetailPrimitives& d) {
     const std::size_t n = d.positions.size();
     std::vector<std::pair<std::uint64_t, std::uint32_t>> sorted(n);
@@ -614,16 +621,10 @@ class PointOrder {
   }
 
   // The run of the points in `cell`, within `within` (a run holding it).
-  Run runOf(const Cell& cell, Run within) const {
-    const auto [firstKey, endKey] = keyRangeOf(cell);
-    const auto begin = keys_.begin() + within.first, stop = keys_.begin() + within.end;
-    const auto first = std::lower_bound(begin, stop, firstKey);
-    const auto end = std::lower_bound(first, stop, endKey);
-    return {static_cast<std::uint32_t>(first - keys_.begin()), static_cast<std::uint32_t>(end - keys_.begin())};
-  }
-  Run all() const { return {0, static_cast<std::uint32_t>(keys_.size())}; }
+  KeyRun runOf(const Cell& cell, KeyRun within) const { return runOfCell(keys_, cell, Cell{}, kPointKeyDepth, within); }
+  KeyRun all() const { return {0, static_cast<std::uint32_t>(keys_.size())}; }
 
-  VariationSums sumsOf(Run run) const {
+  VariationSums sumsOf(KeyRun run) const {
     VariationSums sums;
     for (std::uint32_t k = run.first; k < run.end; ++k) {
       const Record& r = records_[k];
@@ -669,10 +670,6 @@ constexpr double kMostPiecesPerTriangle = 4.5;
 // sums of their runs, as M's points' are (PointOrder).
 class FineSums {
  public:
-  struct Run {
-    std::uint32_t first = 0, end = 0;
-  };
-
   // Each piece of a triangle in a fine cell, summed alone; reused from one
   // coarse cell to the next on a thread (the bunny's coarse cells hold about
   // 870 pieces each, 160 KB, which fresh memory would fault in anew each time).
@@ -691,30 +688,22 @@ class FineSums {
     addUpByCell(scratch);
   }
 
-  Run all() const { return {0, static_cast<std::uint32_t>(keys_.size())}; }
+  KeyRun all() const { return {0, static_cast<std::uint32_t>(keys_.size())}; }
 
   // The run of the fine cells inside `cell` (inside the coarse cell, at most
   // as deep as the fine cells), within `within` (a run holding it).
-  Run runOf(const Cell& cell, Run within) const {
-    const int depth = cell.depth - coarse_.depth;
-    const Vec3f local = (cell.lower() - coarse_.lower()) * std::ldexp(1.0f, cell.depth);  // exact: dyadic
-    const std::uint64_t code = mortonCode(static_cast<std::uint32_t>(local.x()), static_cast<std::uint32_t>(local.y()),
-                                          static_cast<std::uint32_t>(local.z()));
-    const int shift = 3 * (levels_ - depth);
-    const auto begin = keys_.begin() + within.first, stop = keys_.begin() + within.end;
-    const auto first = std::lower_bound(begin, stop, code << shift);
-    const auto end = std::lower_bound(first, stop, (code + 1) << shift);
-    return {static_cast<std::uint32_t>(first - keys_.begin()), static_cast<std::uint32_t>(end - keys_.begin())};
+  KeyRun runOf(const Cell& cell, KeyRun within) const {
+    return runOfCell(keys_, cell, coarse_, coarse_.depth + levels_, within);
   }
 
-  VariationSums sumsOf(Run run) const {
+  VariationSums sumsOf(KeyRun run) const {
     VariationSums sums;
     for (std::uint32_t k = run.first; k < run.end; ++k) sums += sums_[k];
     return sums;
   }
 
   // M's triangles in the run's cells (one fine cell, or none).
-  IdList trianglesOf(Run run) const {
+  IdList trianglesOf(KeyRun run) const {
     if (run.first == run.end) return {};
     return IdList(triangles_.begin() + begin_[run.first], triangles_.begin() + begin_[run.end]);
   }
@@ -800,8 +789,8 @@ struct Leaf {
   IdList triangles;        // m's
   IdList primitives;       // M's triangles (M a mesh), at or below the sum depth
   const FineSums* fine = nullptr;  // M's triangles' sums (M a mesh), above the sum depth
-  FineSums::Run fineRun;
-  PointOrder::Run points;  // M's points (M points)
+  KeyRun fineRun;
+  KeyRun points;  // M's points (M points)
   LeafError error;
   // Children its split would keep (those holding some of m): counted when
   // the leaf is made, as it is cheap (m's few triangles), to bound the
@@ -996,8 +985,8 @@ class Refinement {
   // M's primitives in each kept child and the child's error.
   struct ChildErrors {
     std::array<IdList, 8> primitives;
-    std::array<FineSums::Run, 8> fineRuns;
-    std::array<PointOrder::Run, 8> points;
+    std::array<KeyRun, 8> fineRuns;
+    std::array<KeyRun, 8> points;
     std::array<LeafError, 8> errors;
   };
 
