@@ -70,6 +70,29 @@ void clipAgainstLine(const ParameterPolygon& polygon, double offset, double alon
   }
 }
 
+// Splits `polygon` at the line offset + u alongU + v alongV = 0: `below`
+// keeps where that is <= 0, `above` where it is >= 0; as clipAgainstLine
+// on each side, in one pass.
+void splitAtLine(const ParameterPolygon& polygon, double offset, double alongU, double alongV, ParameterPolygon& below,
+                 ParameterPolygon& above) {
+  std::array<double, 9> side;
+  const int n = polygon.size;
+  for (int i = 0; i < n; ++i) side[i] = offset + polygon.corners[i].x() * alongU + polygon.corners[i].y() * alongV;
+  below.size = 0;
+  above.size = 0;
+  for (int i = 0; i < n; ++i) {
+    const int next = i + 1 == n ? 0 : i + 1;
+    const double dp = side[i], dq = side[next];
+    if (dp <= 0.0) below.corners[below.size++] = polygon.corners[i];
+    if (dp >= 0.0) above.corners[above.size++] = polygon.corners[i];
+    if ((dp < 0.0 && dq > 0.0) || (dp > 0.0 && dq < 0.0)) {
+      const Eigen::Vector2d crossing = polygon.corners[i] + (polygon.corners[next] - polygon.corners[i]) * (dp / (dp - dq));
+      below.corners[below.size++] = crossing;
+      above.corners[above.size++] = crossing;
+    }
+  }
+}
+
 // Triangle abc's corners' bounds and its own (u, v) frame, p(u, v) = origin
 // + u alongU + v alongV, in double: what every clip of it needs.
 struct TriangleFrame {
@@ -107,6 +130,111 @@ ParameterPolygon clipInParameters(const TriangleFrame& frame, const Cell& cell) 
   return *polygon;
 }
 
+// A row of cells along one axis of a grid: cell i spans the planes
+// (first + i) width and (first + i + 1) width (dyadic: exact in float, as
+// Cell's bounds are).
+struct GridAxis {
+  int first = 0, count = 1;
+  float width = 1.0f;
+
+  double plane(int i) const { return static_cast<float>(first + i) * width; }
+};
+using GridAxes = std::array<GridAxis, 3>;
+
+// A triangle's part in one cell of a grid: its (u, v) polygon, and whether
+// no plane cut it (the whole triangle, whose moments are known exactly).
+struct GridPart {
+  std::array<int, 3> cell;
+  const ParameterPolygon* polygon;
+  bool whole;
+};
+
+// Cuts a triangle into the cells of a grid, axis by axis: each piece is cut
+// once at each plane it crosses, where clipping the triangle to each cell
+// apart cut it again for every cell (each clip of a cell starting from the
+// whole triangle). A piece lying in a plane goes to the cell above it; a
+// piece without area (fewer than three corners) to none. `wanted(axis,
+// cell)` says whether any cell with these coordinates up to `axis` is
+// wanted; `visit(part)` takes every part with an area in a wanted cell.
+class GridSweep {
+ public:
+  GridSweep(const TriangleFrame& frame, const GridAxes& grid) : frame_(frame), grid_(grid) {}
+
+  template <class Wanted, class Visit>
+  void run(Wanted wanted, Visit visit) {
+    ParameterPolygon whole;
+    whole.corners[0] = Eigen::Vector2d(0.0, 0.0);
+    whole.corners[1] = Eigen::Vector2d(1.0, 0.0);
+    whole.corners[2] = Eigen::Vector2d(0.0, 1.0);
+    whole.size = 3;
+    sweep(0, whole, true, {0, 0, 0}, wanted, visit);
+  }
+
+ private:
+  // Keeps the part of `polygon` below (sign 1) or above (sign -1) the plane
+  // where the coordinate `axis` is `bound`.
+  void keepSide(const ParameterPolygon& polygon, int axis, double bound, double sign, ParameterPolygon& kept) const {
+    clipAgainstLine(polygon, sign * (frame_.origin[axis] - bound), sign * frame_.alongU[axis],
+                    sign * frame_.alongV[axis], kept);
+  }
+
+  std::pair<double, double> extentOf(const ParameterPolygon& polygon, int axis) const {
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+    for (int i = 0; i < polygon.size; ++i) {
+      const double x = frame_.origin[axis] + polygon.corners[i].x() * frame_.alongU[axis] +
+                       polygon.corners[i].y() * frame_.alongV[axis];
+      lo = std::min(lo, x);
+      hi = std::max(hi, x);
+    }
+    return {lo, hi};
+  }
+
+  template <class Wanted, class Visit>
+  void sweep(int axis, const ParameterPolygon& polygon, bool whole, std::array<int, 3> cell, Wanted& wanted,
+             Visit& visit) {
+    const GridAxis& row = grid_[axis];
+    const auto [lo, hi] = extentOf(polygon, axis);
+    std::array<ParameterPolygon, 3> buffers;
+    const ParameterPolygon* rest = &polygon;  // the piece not yet filed, from cell i on
+    int free = 0;
+    const auto cut = [&](double bound, double sign) -> ParameterPolygon* {
+      ParameterPolygon* kept = &buffers[free];
+      free = (free + 1) % 3;
+      keepSide(*rest, axis, bound, sign, *kept);
+      whole = false;
+      return kept;
+    };
+    if (lo < row.plane(0)) rest = cut(row.plane(0), -1.0);
+    if (hi > row.plane(row.count) && rest->size >= 3) rest = cut(row.plane(row.count), 1.0);
+    for (int i = 0; i < row.count && rest->size >= 3; ++i) {
+      const double upper = row.plane(i + 1);
+      if (lo >= upper && i + 1 < row.count) continue;  // nothing of it below this cell's upper plane
+      cell[axis] = i;
+      const bool last = hi <= upper || i + 1 == row.count;
+      const ParameterPolygon* part = rest;
+      if (!last) {
+        ParameterPolygon* below = &buffers[free];
+        ParameterPolygon* above = &buffers[(free + 1) % 3];
+        free = (free + 2) % 3;
+        splitAtLine(*rest, frame_.origin[axis] - upper, frame_.alongU[axis], frame_.alongV[axis], *below, *above);
+        whole = false;
+        rest = above;
+        part = below;
+      }
+      if (part->size >= 3 && wanted(axis, cell)) {
+        if (axis == 2)
+          visit(GridPart{cell, part, whole});
+        else
+          sweep(axis + 1, *part, whole, cell, wanted, visit);
+      }
+      if (last) break;
+    }
+  }
+
+  const TriangleFrame& frame_;
+  const GridAxes& grid_;
+};
+
 // The integrals of 1, u, v, u^2, uv and v^2 over a region of the (u, v)
 // plane.
 struct ParameterMoments {
@@ -132,6 +260,18 @@ ParameterMoments momentsOf(const ParameterPolygon& polygon) {
     m.uv += (2.0 * p.x() * p.y() + p.x() * q.y() + q.x() * p.y() + 2.0 * q.x() * q.y()) * cross;
   }
   return {m.area / 2.0, m.u / 6.0, m.v / 6.0, m.uu / 12.0, m.uv / 24.0, m.vv / 12.0};
+}
+
+// A part's moments: the whole triangle's exactly when no plane cut it.
+ParameterMoments momentsOf(const GridPart& part) { return part.whole ? kWholeTriangle : momentsOf(*part.polygon); }
+
+// The children of a cell as a grid of two cells per axis.
+GridAxes childGrid(const Cell& cell) {
+  const int depth = cell.depth + 1;
+  const Vec3f lower = cell.lower() * std::ldexp(1.0f, depth);  // exact: dyadic
+  const float width = std::ldexp(1.0f, -depth);
+  return {GridAxis{static_cast<int>(lower.x()), 2, width}, GridAxis{static_cast<int>(lower.y()), 2, width},
+          GridAxis{static_cast<int>(lower.z()), 2, width}};
 }
 
 // A field linear on a triangle, from its corner values: f(u, v) = f0 + u
@@ -291,12 +431,16 @@ struct VariationSums {
   double l21() const { return all.l21(); }
 
   // The axis whose two sides leave the least L2,1, and that L2,1 (each side
-  // against its own mean normal).
+  // against its own mean normal). A later axis wins only by more than
+  // rounding: where m's normal has no zero coordinate, every axis parts the
+  // same pieces, and the sums differ in their last bits alone, with the
+  // order M was cut in.
   std::pair<int, double> bestTwoSides() const {
+    constexpr double kRounding = 1e-9;
     std::pair<int, double> best{0, std::numeric_limits<double>::infinity()};
     for (int axis = 0; axis < 3; ++axis) {
       const double error = sideZero[axis].l21() + (all - sideZero[axis]).l21();
-      if (error < best.second) best = {axis, error};
+      if (error < best.second * (1.0 - kRounding)) best = {axis, error};
     }
     return best;
   }
@@ -717,29 +861,28 @@ class FineSums {
     scratch.pieces.clear();
     scratch.sums.clear();
     const int cellsPerAxis = 1 << sumDepth;
+    const float width = std::ldexp(1.0f, -sumDepth);
     const std::array<int, 3> origin = gridOrigin(coarse_, sumDepth);
     const int side = 1 << levels_;
     for (const std::uint32_t t : triangles) {
       const MetricTriangle triangle(d, d.triangles[t]);
       const GridRange range = gridRange(triangle.bounds(), cellsPerAxis);
-      std::array<int, 3> first{}, last{};
+      GridAxes grid;
+      bool empty = false;
       for (int axis = 0; axis < 3; ++axis) {
-        first[axis] = std::max(range.first[axis], origin[axis]);
-        last[axis] = std::min(range.last[axis], origin[axis] + side - 1);
+        const int first = std::max(range.first[axis], origin[axis]);
+        const int last = std::min(range.last[axis], origin[axis] + side - 1);
+        grid[axis] = {first, last - first + 1, width};
+        empty = empty || last < first;
       }
-      for (int x = first[0]; x <= last[0]; ++x)
-        for (int y = first[1]; y <= last[1]; ++y)
-          for (int z = first[2]; z <= last[2]; ++z) {
-            VariationSums& sums = scratch.sums.emplace_back();
-            if (!addTriangleInCell(triangle, gridCell(gridKey(x, y, z, sumDepth), sumDepth), sums)) {
-              scratch.sums.pop_back();
-              continue;
-            }
-            const std::uint64_t key = mortonCode(static_cast<std::uint32_t>(x - origin[0]),
-                                                 static_cast<std::uint32_t>(y - origin[1]),
-                                                 static_cast<std::uint32_t>(z - origin[2]));
-            scratch.pieces.push_back({key, t, static_cast<std::uint32_t>(scratch.sums.size() - 1)});
-          }
+      if (empty) continue;
+      GridSweep(triangle.frame, grid).run([](int, const std::array<int, 3>&) { return true; }, [&](const GridPart& part) {
+        scratch.sums.emplace_back().addPart(triangle, momentsOf(part));
+        const std::uint64_t key = mortonCode(static_cast<std::uint32_t>(grid[0].first + part.cell[0] - origin[0]),
+                                             static_cast<std::uint32_t>(grid[1].first + part.cell[1] - origin[1]),
+                                             static_cast<std::uint32_t>(grid[2].first + part.cell[2] - origin[2]));
+        scratch.pieces.push_back({key, t, static_cast<std::uint32_t>(scratch.sums.size() - 1)});
+      });
     }
   }
 
@@ -1019,15 +1162,27 @@ class Refinement {
     return out;
   }
 
-  // Each triangle is clipped once per child it may touch, and the clip is
-  // both the overlap test and the piece the child's sums take (filing by a
-  // separating-axis test, then clipping again to sum, cost 3-5% more of the
-  // build: docs/benchmarks.md, "A faster build"). A triangle whose part in
-  // a child has no area is not filed there: it adds nothing below.
+  // Each triangle is cut at the midplanes it crosses (GridSweep), and its
+  // parts are both the overlap test and the pieces the children's sums take
+  // (filing by a separating-axis test, then clipping again to sum, cost 3-5%
+  // more of the build: docs/benchmarks.md, "A faster build"). A triangle
+  // whose part in a child has no area is not filed there: it adds nothing
+  // below.
   ChildErrors distributeTriangles(const Leaf& leaf, std::uint8_t mask) const {
     ChildErrors out;
     std::array<VariationSums, 8> sums;
     const Cell& cell = leaf.cell;
+    const GridAxes children = childGrid(cell);
+    // Whether a kept child lies on the sides given up to `axis` (child bit 1:
+    // the lower half, grid cell 0).
+    const auto wanted = [&](int axis, const std::array<int, 3>& at) {
+      for (int c = 0; c < 8; ++c) {
+        bool matches = (mask & (1u << c)) != 0;
+        for (int a = 0; a <= axis && matches; ++a) matches = ((c >> (2 - a)) & 1) == (at[a] == 0 ? 1 : 0);
+        if (matches) return true;
+      }
+      return false;
+    };
     const IdList& primitives = leaf.primitives;
     for (std::size_t k = 0; k < primitives.size(); ++k) {
       // The records are read through the leaf's list: fetched ahead, their
@@ -1035,8 +1190,10 @@ class Refinement {
       if (k + kPrefetchAhead < primitives.size()) prefetchRecord(detail_.triangles[primitives[k + kPrefetchAhead]]);
       const std::uint32_t t = primitives[k];
       const MetricTriangle triangle(detail_, detail_.triangles[t]);
-      forChildrenTouching(cell, triangle.bounds(), [&](int c) {
-        if ((mask & (1u << c)) && addTriangleInCell(triangle, cell.child(c), sums[c])) out.primitives[c].push_back(t);
+      GridSweep(triangle.frame, children).run(wanted, [&](const GridPart& part) {
+        const int c = (part.cell[0] == 0 ? 4 : 0) | (part.cell[1] == 0 ? 2 : 0) | (part.cell[2] == 0 ? 1 : 0);
+        sums[c].addPart(triangle, momentsOf(part));
+        out.primitives[c].push_back(t);
       });
     }
     const bool withCoarse = detail_.coarseKnown;
