@@ -152,8 +152,11 @@ struct GridPart {
 // Cuts a triangle into the cells of a grid, axis by axis: each piece is cut
 // once at each plane it crosses, where clipping the triangle to each cell
 // apart cut it again for every cell (each clip of a cell starting from the
-// whole triangle). A piece lying in a plane goes to the cell above it; a
-// piece without area (fewer than three corners) to none. `wanted(axis,
+// whole triangle). A piece lying in a plane between two cells is the lower
+// one's, as a point there is the lookup's (format.h, childIndex), and the
+// cube's lower face the first cell's: it is counted once, where clipping
+// to each cell counted it in both. A piece without area (fewer than three
+// corners) goes to none. `wanted(axis,
 // cell)` says whether any cell with these coordinates up to `axis` is
 // wanted; `visit(part)` takes every part with an area in a wanted cell.
 class GridSweep {
@@ -204,13 +207,15 @@ class GridSweep {
       whole = false;
       return kept;
     };
+    // In the grid's lower face: the cell below's, but at the cube's.
+    if (hi <= row.plane(0) && row.plane(0) > 0.0) return;
     if (lo < row.plane(0)) rest = cut(row.plane(0), -1.0);
     if (hi > row.plane(row.count) && rest->size >= 3) rest = cut(row.plane(row.count), 1.0);
     for (int i = 0; i < row.count && rest->size >= 3; ++i) {
       const double upper = row.plane(i + 1);
-      if (lo >= upper && i + 1 < row.count) continue;  // nothing of it below this cell's upper plane
-      cell[axis] = i;
       const bool last = hi <= upper || i + 1 == row.count;
+      if (!last && lo >= upper) continue;  // nothing of it below this cell's upper plane
+      cell[axis] = i;
       const ParameterPolygon* part = rest;
       if (!last) {
         ParameterPolygon* below = &buffers[free];
@@ -265,13 +270,17 @@ ParameterMoments momentsOf(const ParameterPolygon& polygon) {
 // A part's moments: the whole triangle's exactly when no plane cut it.
 ParameterMoments momentsOf(const GridPart& part) { return part.whole ? kWholeTriangle : momentsOf(*part.polygon); }
 
-// The children of a cell as a grid of two cells per axis.
-GridAxes childGrid(const Cell& cell) {
-  const int depth = cell.depth + 1;
+// GridSweep's `wanted` for every cell of its grid.
+constexpr auto kEveryCell = [](int, const std::array<int, 3>&) { return true; };
+
+// The cells `levels` deeper than `cell` inside it, as a grid.
+GridAxes gridInside(const Cell& cell, int levels) {
+  const int depth = cell.depth + levels;
   const Vec3f lower = cell.lower() * std::ldexp(1.0f, depth);  // exact: dyadic
   const float width = std::ldexp(1.0f, -depth);
-  return {GridAxis{static_cast<int>(lower.x()), 2, width}, GridAxis{static_cast<int>(lower.y()), 2, width},
-          GridAxis{static_cast<int>(lower.z()), 2, width}};
+  const int count = 1 << levels;
+  return {GridAxis{static_cast<int>(lower.x()), count, width}, GridAxis{static_cast<int>(lower.y()), count, width},
+          GridAxis{static_cast<int>(lower.z()), count, width}};
 }
 
 // A field linear on a triangle, from its corner values: f(u, v) = f0 + u
@@ -330,10 +339,6 @@ Bounds detailBounds(const DetailPrimitives& d, std::uint32_t i) {
 bool detailOverlaps(const DetailPrimitives& d, std::uint32_t i, const Cell& cell) {
   const auto& c = d.triangles[i].corners;
   return triangleOverlapsBox(c[0], c[1], c[2], cell);
-}
-
-bool boundsInsideCell(const Bounds& b, const Cell& cell) {
-  return (b.lo.array() >= cell.lower().array()).all() && (b.hi.array() <= cell.upper().array()).all();
 }
 
 // A triangle of M as the metric clips it: its frame, its area over the unit
@@ -447,19 +452,11 @@ struct VariationSums {
 };
 
 // The part of triangle `m` of M inside the cell, added with its
-// interpolated normals; false when that part is empty (the triangle misses
-// the cell or only touches it), so that the clip is also the overlap test.
-// The part's integrals come from its moments in the triangle's own
-// coordinates, exactly for the linear fields.
-bool addTriangleInCell(const MetricTriangle& m, const Cell& cell, VariationSums& sums) {
-  ParameterMoments moments = kWholeTriangle;
-  if (!boundsInsideCell(m.bounds(), cell)) {
-    const ParameterPolygon part = clipInParameters(m.frame, cell);
-    if (part.size < 3) return false;
-    moments = momentsOf(part);
-  }
-  sums.addPart(m, moments);
-  return true;
+// interpolated normals (a part in a face between cells is the lower cell's,
+// as GridSweep files it). The part's integrals come from its moments in the
+// triangle's own coordinates, exactly for the linear fields.
+void addTriangleInCell(const MetricTriangle& m, const Cell& cell, VariationSums& sums) {
+  GridSweep(m.frame, gridInside(cell, 0)).run(kEveryCell, [&](const GridPart& part) { sums.addPart(m, momentsOf(part)); });
 }
 
 // A leaf that stops refining shows m's normals where they leave less than
@@ -876,7 +873,7 @@ class FineSums {
         empty = empty || last < first;
       }
       if (empty) continue;
-      GridSweep(triangle.frame, grid).run([](int, const std::array<int, 3>&) { return true; }, [&](const GridPart& part) {
+      GridSweep(triangle.frame, grid).run(kEveryCell, [&](const GridPart& part) {
         scratch.sums.emplace_back().addPart(triangle, momentsOf(part));
         const std::uint64_t key = mortonCode(static_cast<std::uint32_t>(grid[0].first + part.cell[0] - origin[0]),
                                              static_cast<std::uint32_t>(grid[1].first + part.cell[1] - origin[1]),
@@ -1172,7 +1169,7 @@ class Refinement {
     ChildErrors out;
     std::array<VariationSums, 8> sums;
     const Cell& cell = leaf.cell;
-    const GridAxes children = childGrid(cell);
+    const GridAxes children = gridInside(cell, 1);
     // Whether a kept child lies on the sides given up to `axis` (child bit 1:
     // the lower half, grid cell 0).
     const auto wanted = [&](int axis, const std::array<int, 3>& at) {

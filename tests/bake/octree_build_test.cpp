@@ -464,6 +464,26 @@ TEST(SumDepthFor, AFewLargeTrianglesAmongSmallOnesRaiseIt) {
   EXPECT_EQ(sumDepthFor(mixed, settings), 7);
 }
 
+// M flat in a plane between cells (z = 1/2: the root's midplane, and a face
+// of cells at every depth), m over it: each piece of M lies on the faces of
+// two cells, and is counted in one (the cell above), level by level and
+// summed from fine cells alike; the leaves' area is M's, 1/16 (counted in
+// both cells, it was twice that).
+TEST(BuildOctreeWithABudget, MInACellFaceIsCountedOnce) {
+  const DetailPrimitives detail = flatGrid(32, 1.0f / 128.0f, 0.5f);
+  CoarseMesh coarse;
+  coarse.positions = {Vec3f(0.25f, 0.25f, 0.5f), Vec3f(0.5f, 0.25f, 0.5f), Vec3f(0.5f, 0.5f, 0.5f),
+                      Vec3f(0.25f, 0.5f, 0.5f)};
+  coarse.triangles = {{0, 1, 2}, {0, 2, 3}};
+  for (const int sumDepth : {0, 6}) {
+    BuildSettings settings = budgetSettings(4000);
+    settings.sumDepth = sumDepth;
+    const BuiltOctree built = buildOctree(coarse, detail, settings);
+    EXPECT_EQ(built.refinement.sumDepth, sumDepth);
+    EXPECT_NEAR(built.refinement.area, 1.0 / 16.0, 1e-6) << "sum depth " << sumDepth;
+  }
+}
+
 TEST(BuildOctree, SameTreeWithOneOrTwoThreads) {
   const SphereCase c = bumpySphereCase();
   const auto build = [&](int threads) {
