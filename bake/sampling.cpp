@@ -253,13 +253,15 @@ SampleCounts sampleNormalField(octree::BuiltOctree& built, const CoarseFrames& c
     std::vector<double> areas(end - begin);
     for (std::size_t i = begin; i < end; ++i)
       sampler.addSamples(leaves[i], static_cast<std::uint32_t>(i - begin), samples, areas[i - begin]);
-    // Two rays per sample: along m's normal and against it.
-    std::vector<Ray> rays;
-    rays.reserve(2 * samples.size());
-    for (const Sample& s : samples) {
-      const float reach = sampler.reachOf(leaves[begin + s.leaf]);
-      rays.push_back(sampler.rayOf(s, 1.0f, reach));
-      rays.push_back(sampler.rayOf(s, -1.0f, reach));
+    // Two rays per sample: along m's normal (rays[k]) and against it
+    // (rays[n + k]), each half in the samples' order, neighbours in space:
+    // the caster takes them as a coherent stream.
+    const std::size_t n = samples.size();
+    std::vector<Ray> rays(2 * n);
+    for (std::size_t k = 0; k < n; ++k) {
+      const float reach = sampler.reachOf(leaves[begin + samples[k].leaf]);
+      rays[k] = sampler.rayOf(samples[k], 1.0f, reach);
+      rays[n + k] = sampler.rayOf(samples[k], -1.0f, reach);
     }
     std::vector<RayHit> hits;
     detail.caster->intersect(rays, hits);
@@ -269,8 +271,8 @@ SampleCounts sampleNormalField(octree::BuiltOctree& built, const CoarseFrames& c
     SampleCounts& count = counts[chunk];
     count.rays += rays.size();
     for (std::size_t k = 0; k < samples.size(); ++k) {
-      const RayHit& forward = hits[2 * k];
-      const RayHit& backward = hits[2 * k + 1];
+      const RayHit& forward = hits[k];
+      const RayHit& backward = hits[n + k];
       Vec3f normal;
       if (forward.hit() || backward.hit()) {
         const RayHit& nearest = (forward.hit() && (!backward.hit() || forward.t <= backward.t)) ? forward : backward;
@@ -289,13 +291,13 @@ SampleCounts sampleNormalField(octree::BuiltOctree& built, const CoarseFrames& c
       SampleMoments& leafMoments = moments[leaves[begin + slot]];
       leafMoments.weight += samples[k].weight;
       leafMoments.sum += samples[k].weight * normal.cast<double>();
-      leafMoments.alongCoarse += samples[k].weight * static_cast<double>(normal.dot(rays[2 * k].direction));
-      leafMoments.coarseSum += samples[k].weight * rays[2 * k].direction.cast<double>();
+      leafMoments.alongCoarse += samples[k].weight * static_cast<double>(normal.dot(rays[k].direction));
+      leafMoments.coarseSum += samples[k].weight * rays[k].direction.cast<double>();
       weighted[slot] += samples[k].weight * normal.cast<double>();
       plain[slot] += normal.cast<double>();
       const OctreeNode& leaf = octree.nodes[leaves[begin + slot]];
       // The forward ray runs along m's normal at the sample.
-      if (leaf.twoSided) sides[slot][leafSide(rays[2 * k].direction, leaf.sideAxis)] += samples[k].weight * normal.cast<double>();
+      if (leaf.twoSided) sides[slot][leafSide(rays[k].direction, leaf.sideAxis)] += samples[k].weight * normal.cast<double>();
     }
     for (std::size_t i = begin; i < end; ++i) {
       OctreeNode& leaf = octree.nodes[leaves[i]];

@@ -65,9 +65,12 @@ class EmbreeCaster final : public RayCaster {
     hits.assign(rays.size(), RayHit{});
     RTCIntersectContext context;
     rtcInitIntersectContext(&context);
+    context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    std::vector<RTCRayHit> queries(rays.size());
+    for (std::size_t i = 0; i < rays.size(); ++i) queries[i] = embreeQuery(rays[i]);
+    rtcIntersect1M(scene_, &context, queries.data(), static_cast<unsigned>(queries.size()), sizeof(RTCRayHit));
     for (std::size_t i = 0; i < rays.size(); ++i) {
-      RTCRayHit query = embreeQuery(rays[i]);
-      rtcIntersect1(scene_, &context, &query);
+      const RTCRayHit& query = queries[i];
       if (query.hit.geomID == RTC_INVALID_GEOMETRY_ID) continue;
       RayHit& hit = hits[i];
       hit.primitive = query.hit.primID;
