@@ -156,9 +156,9 @@ struct GridPart {
 // one's, as a point there is the lookup's (format.h, childIndex), and the
 // cube's lower face the first cell's: it is counted once, where clipping
 // to each cell counted it in both. A piece without area (fewer than three
-// corners) goes to none. `wanted(axis,
-// cell)` says whether any cell with these coordinates up to `axis` is
-// wanted; `visit(part)` takes every part with an area in a wanted cell.
+// corners) goes to none. `wanted(axis, cell)` says whether any cell with
+// these coordinates up to `axis` is wanted; `visit(part)` takes every part
+// with an area in a wanted cell.
 class GridSweep {
  public:
   GridSweep(const TriangleFrame& frame, const GridAxes& grid) : frame_(frame), grid_(grid) {}
@@ -1170,15 +1170,14 @@ class Refinement {
     std::array<VariationSums, 8> sums;
     const Cell& cell = leaf.cell;
     const GridAxes children = gridInside(cell, 1);
-    // Whether a kept child lies on the sides given up to `axis` (child bit 1:
-    // the lower half, grid cell 0).
+    // The children on each half of each axis (child bit 1: the lower half,
+    // grid cell 0): x's bit is 4, y's 2, z's 1.
+    constexpr std::array<std::array<unsigned, 2>, 3> kHalf{{{0xF0, 0x0F}, {0xCC, 0x33}, {0xAA, 0x55}}};
+    // Whether a kept child lies on the halves given up to `axis`.
     const auto wanted = [&](int axis, const std::array<int, 3>& at) {
-      for (int c = 0; c < 8; ++c) {
-        bool matches = (mask & (1u << c)) != 0;
-        for (int a = 0; a <= axis && matches; ++a) matches = ((c >> (2 - a)) & 1) == (at[a] == 0 ? 1 : 0);
-        if (matches) return true;
-      }
-      return false;
+      unsigned children = mask;
+      for (int a = 0; a <= axis; ++a) children &= kHalf[a][at[a]];
+      return children != 0;
     };
     const IdList& primitives = leaf.primitives;
     for (std::size_t k = 0; k < primitives.size(); ++k) {
