@@ -547,57 +547,28 @@ LeafError errorInCell(const DetailPrimitives& detail, std::span<const std::uint3
   return leafErrorOf(sums, withCoarse, deferToCoarse, twoSides);
 }
 
-// Children of `cell` whose closed box meets the bounds: on each axis the
-// lower child (bit 1) when the bounds reach below the centre, the upper one
-// (bit 0) when they reach above it.
-template <class Visit>
-void forChildrenTouching(const Cell& cell, const Bounds& bounds, Visit visit) {
-  std::array<std::array<bool, 2>, 3> side{};  // side[axis][bit]
-  for (int axis = 0; axis < 3; ++axis) {
-    side[axis][1] = bounds.lo[axis] <= cell.centre[axis];
-    side[axis][0] = bounds.hi[axis] >= cell.centre[axis];
-  }
-  for (int c = 0; c < 8; ++c)
-    if (side[0][(c >> 2) & 1] && side[1][(c >> 1) & 1] && side[2][c & 1]) visit(c);
-}
-
-// Whether the bounds fit in one closed child on every axis (then that child
-// surely overlaps the primitive and no separating-axis test is needed).
-bool insideOneChild(const Cell& cell, const Bounds& bounds) {
-  for (int axis = 0; axis < 3; ++axis)
-    if (bounds.lo[axis] < cell.centre[axis] && bounds.hi[axis] > cell.centre[axis]) return false;
-  return true;
-}
-
-// Splits a primitive list among the eight children of `cell`.
-template <class BoundsOf, class Overlaps>
-std::array<IdList, 8> distribute(const IdList& primitives, const Cell& cell, BoundsOf boundsOf, Overlaps overlaps,
-                                 std::uint8_t onlyMask) {
+// Splits m's triangles among the eight children of `cell`.
+std::array<IdList, 8> distributeCoarse(const CoarseMesh& m, const IdList& triangles, const Cell& cell) {
   std::array<IdList, 8> children;
-  for (const std::uint32_t p : primitives) {
-    const Bounds bounds = boundsOf(p);
-    const bool sure = insideOneChild(cell, bounds);
-    forChildrenTouching(cell, bounds, [&](int c) {
-      if (!(onlyMask & (1u << c))) return;
-      if (sure || overlaps(p, cell.child(c))) children[c].push_back(p);
-    });
+  for (const std::uint32_t t : triangles) {
+    const Triangle& tri = m.triangles[t];
+    const unsigned meeting = childrenMeeting(m.positions[tri[0]], m.positions[tri[1]], m.positions[tri[2]], cell);
+    for (int c = 0; c < 8; ++c)
+      if (meeting & (1u << c)) children[c].push_back(t);
   }
   return children;
 }
 
-// The children `distribute` would give a non-empty list, without the lists: a
-// child counts from its first primitive on, and the others are not tested
-// against it again (counting m's triangles through the lists spent 8% of the
-// 1.2M bunny's bake in separating-axis tests).
-template <class BoundsOf, class Overlaps>
-std::uint8_t childrenHoldingAny(const IdList& primitives, const Cell& cell, BoundsOf boundsOf, Overlaps overlaps) {
+// The children `distributeCoarse` would give a non-empty list, without the
+// lists: a child counts from its first triangle on, and the others are not
+// tested against it again (counting m's triangles through the lists spent
+// 8% of the 1.2M bunny's bake in separating-axis tests).
+std::uint8_t childrenHoldingCoarse(const CoarseMesh& m, const IdList& triangles, const Cell& cell) {
   unsigned holding = 0;
-  for (const std::uint32_t p : primitives) {
-    const Bounds bounds = boundsOf(p);
-    const bool sure = insideOneChild(cell, bounds);
-    forChildrenTouching(cell, bounds, [&](int c) {
-      if (!(holding & (1u << c)) && (sure || overlaps(p, cell.child(c)))) holding |= 1u << c;
-    });
+  for (const std::uint32_t t : triangles) {
+    const Triangle& tri = m.triangles[t];
+    holding |= childrenMeeting(m.positions[tri[0]], m.positions[tri[1]], m.positions[tri[2]], cell,
+                               static_cast<std::uint8_t>(~holding & 0xFF));
     if (holding == 0xFF) break;
   }
   return static_cast<std::uint8_t>(holding);
@@ -1093,9 +1064,7 @@ class Refinement {
 
   // The children that would hold some of m, as coarseInChildren keeps them.
   int keptChildrenOf(const Leaf& leaf) const {
-    return std::popcount(static_cast<unsigned>(childrenHoldingAny(
-        leaf.triangles, leaf.cell, [&](std::uint32_t t) { return coarseBounds(coarse_, t); },
-        [&](std::uint32_t t, const Cell& child) { return coarseOverlaps(coarse_, t, child); })));
+    return std::popcount(static_cast<unsigned>(childrenHoldingCoarse(coarse_, leaf.triangles, leaf.cell)));
   }
 
   LeafError errorOf(const Leaf& leaf) const {
@@ -1115,9 +1084,7 @@ class Refinement {
  private:
   // m's triangles in each child of the leaf's cell.
   std::array<IdList, 8> coarseInChildren(const Leaf& leaf) const {
-    return distribute(
-        leaf.triangles, leaf.cell, [&](std::uint32_t t) { return coarseBounds(coarse_, t); },
-        [&](std::uint32_t t, const Cell& child) { return coarseOverlaps(coarse_, t, child); }, 0xFF);
+    return distributeCoarse(coarse_, leaf.triangles, leaf.cell);
   }
 
   bool mayBeTwoSided(const Cell& cell) const {
@@ -1342,6 +1309,40 @@ bool triangleOverlapsBox(const Vec3f& a, const Vec3f& b, const Vec3f& c, const C
     for (int axis = 0; axis < 3; ++axis)
       if (separatedOn(Vec3f::Unit(axis).cross(edge), v0, v1, v2, half)) return false;
   return true;
+}
+
+// One projection of the corners per axis for the eight children: a child's
+// centre shifts it by its offset along the axis (a child's half width and
+// its centre's offset on each axis are both a quarter of the cell's width).
+std::uint8_t childrenMeeting(const Vec3f& a, const Vec3f& b, const Vec3f& c, const Cell& cell, std::uint8_t wanted) {
+  const float quarter = 0.25f * cell.width;
+  const Vec3f v0 = a - cell.centre, v1 = b - cell.centre, v2 = c - cell.centre;
+  unsigned meeting = wanted;
+  // Box axes: the lower children on an axis (bit 1, childCentre) span
+  // [-2 quarter, 0] from the centre, the upper ones [0, 2 quarter].
+  constexpr std::array<unsigned, 3> kLowerOn{0xF0, 0xCC, 0xAA};
+  for (int axis = 0; axis < 3; ++axis) {
+    const float lo = std::min({v0[axis], v1[axis], v2[axis]}), hi = std::max({v0[axis], v1[axis], v2[axis]});
+    if (lo > 0.0f || hi < -2.0f * quarter) meeting &= ~kLowerOn[axis];
+    if (hi < 0.0f || lo > 2.0f * quarter) meeting &= kLowerOn[axis];
+  }
+  const auto separate = [&](const Vec3f& axis) {
+    const float p0 = axis.dot(v0), p1 = axis.dot(v1), p2 = axis.dot(v2);
+    const float lo = std::min({p0, p1, p2}), hi = std::max({p0, p1, p2});
+    const Vec3f shift = quarter * axis;
+    const float radius = quarter * axis.cwiseAbs().sum();
+    for (unsigned child = 0; child < 8; ++child) {
+      if (!(meeting & (1u << child))) continue;
+      const float offset = ((child & 4) ? -shift.x() : shift.x()) + ((child & 2) ? -shift.y() : shift.y()) +
+                           ((child & 1) ? -shift.z() : shift.z());
+      if (lo - offset > radius || hi - offset < -radius) meeting &= ~(1u << child);
+    }
+  };
+  const std::array<Vec3f, 3> edges = {v1 - v0, v2 - v1, v0 - v2};
+  if (meeting != 0) separate(edges[0].cross(edges[1]));
+  for (const Vec3f& edge : edges)
+    for (int axis = 0; axis < 3 && meeting != 0; ++axis) separate(Vec3f::Unit(axis).cross(edge));
+  return static_cast<std::uint8_t>(meeting);
 }
 
 std::vector<Vec3f> clipTriangleToCell(const Vec3f& a, const Vec3f& b, const Vec3f& c, const Cell& cell) {

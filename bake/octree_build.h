@@ -26,6 +26,14 @@ struct Cell {
 // (Akenine-Moller 2001): 3 box axes, the triangle normal, 9 edge crossings.
 bool triangleOverlapsBox(const Vec3f& a, const Vec3f& b, const Vec3f& c, const Cell& cell);
 
+// The children of `cell` among `wanted` (bit c: child c) whose closed boxes
+// meet triangle abc: triangleOverlapsBox made once for the eight. Testing
+// each child apart projected the corners again for each: m's triangles,
+// tested against the children and grandchildren of every leaf evaluated,
+// took 7% of the 1.2M bunny's bake so (docs/benchmarks.md).
+std::uint8_t childrenMeeting(const Vec3f& a, const Vec3f& b, const Vec3f& c, const Cell& cell,
+                             std::uint8_t wanted = 0xFF);
+
 // The part of triangle abc inside the cell (Sutherland-Hodgman against the
 // six faces): a convex polygon of up to 9 corners, empty when they miss.
 std::vector<Vec3f> clipTriangleToCell(const Vec3f& a, const Vec3f& b, const Vec3f& c, const Cell& cell);

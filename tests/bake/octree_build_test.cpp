@@ -10,6 +10,7 @@
 #include <tbb/global_control.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <numbers>
 #include <random>
@@ -60,6 +61,47 @@ TEST(TriangleOverlapsBox, AgreesWithDenseSampling) {
   }
   EXPECT_GT(overlapping, 300);  // both outcomes were exercised
   EXPECT_GT(apart, 300);
+}
+
+// The eight children's mask is each child's own test, made in one pass;
+// triangles of every size against the cell (inside one child, across it,
+// far larger), and triangles lying in the cell's midplanes, which meet the
+// closed children on both sides.
+TEST(ChildrenMeeting, AgreesWithEachChildTestedApart) {
+  std::mt19937 rng(19);
+  std::uniform_real_distribution<float> scale(0.01f, 2.0f);
+  std::uniform_int_distribution<int> anyMask(0, 255);
+  int meetings = 0, misses = 0, partly = 0;
+  const auto check = [&](const Vec3f& a, const Vec3f& b, const Vec3f& c, const Cell& cell, int trial) {
+    unsigned apart = 0;
+    for (int child = 0; child < 8; ++child)
+      if (triangleOverlapsBox(a, b, c, cell.child(child))) apart |= 1u << child;
+    ASSERT_EQ(childrenMeeting(a, b, c, cell), apart) << "trial " << trial;
+    const auto wanted = static_cast<std::uint8_t>(anyMask(rng));
+    ASSERT_EQ(childrenMeeting(a, b, c, cell, wanted), apart & wanted) << "trial " << trial;
+    for (int child = 0; child < 8; ++child) ((apart >> child) & 1u ? meetings : misses) += 1;
+    partly += apart != 0 && apart != 0xFF ? 1 : 0;
+  };
+  for (int trial = 0; trial < 20000; ++trial) {
+    const Cell cell{randomPoint(rng, 0.3f, 0.7f), 0.25f, 2};
+    const Vec3f centre = cell.centre + (randomPoint(rng, 0.0f, 1.0f) - Vec3f::Constant(0.5f)) * 0.5f;
+    const float size = scale(rng) * cell.width;
+    const auto corner = [&]() -> Vec3f { return centre + (randomPoint(rng, 0.0f, 1.0f) - Vec3f::Constant(0.5f)) * size; };
+    check(corner(), corner(), corner(), cell, trial);
+  }
+  const Cell cell{Vec3f::Constant(0.5f), 0.5f, 1};
+  for (int axis = 0; axis < 3; ++axis) {
+    // In the midplane, around the centre: all eight closed children.
+    Vec3f a = Vec3f::Constant(0.3f), b = Vec3f::Constant(0.3f), c = Vec3f::Constant(0.3f);
+    a[axis] = b[axis] = c[axis] = 0.5f;
+    b[(axis + 1) % 3] = 0.9f;
+    c[(axis + 2) % 3] = 0.9f;
+    check(a, b, c, cell, -1 - axis);
+    EXPECT_EQ(std::popcount(static_cast<unsigned>(childrenMeeting(a, b, c, cell))), 8);
+  }
+  EXPECT_GT(meetings, 5000);  // every outcome was exercised
+  EXPECT_GT(misses, 50000);
+  EXPECT_GT(partly, 2000) << meetings << " " << misses;
 }
 
 TEST(ClipTriangleToCell, AreaMatchesMonteCarlo) {
