@@ -622,14 +622,15 @@ bool insideUnitCube(const Bounds& b) {
   return (b.lo.array() >= 0.0f).all() && (b.hi.array() <= 1.0f).all();
 }
 
-// (cell key, primitive) for every coarse cell a primitive overlaps among the
-// cells `wanted` accepts, sorted: grouped by cell, primitives in increasing
-// order within a cell.
-template <class BoundsOf, class Overlaps, class Wanted>
-std::vector<std::pair<GridKey, std::uint32_t>> binIntoGrid(std::size_t count, int depth, BoundsOf boundsOf,
-                                                           Overlaps overlaps, Wanted wanted) {
+// (tag, primitive) for every coarse cell a primitive overlaps, where
+// `tagOf(key)` gives the cell a tag (none: the cell is not wanted); one list
+// per 4096 primitives, in the primitives' order.
+template <class BoundsOf, class Overlaps, class TagOf>
+std::vector<std::vector<std::pair<std::uint64_t, std::uint32_t>>> overlapsByChunk(std::size_t count, int depth,
+                                                                                  BoundsOf boundsOf, Overlaps overlaps,
+                                                                                  TagOf tagOf) {
   const int n = 1 << depth;
-  std::vector<std::vector<std::pair<GridKey, std::uint32_t>>> perChunk((count + 4095) / 4096);
+  std::vector<std::vector<std::pair<std::uint64_t, std::uint32_t>>> perChunk((count + 4095) / 4096);
   tbb::parallel_for(std::size_t{0}, perChunk.size(), [&](std::size_t chunk) {
     auto& pairs = perChunk[chunk];
     for (std::size_t i = chunk * 4096; i < std::min(count, (chunk + 1) * 4096); ++i) {
@@ -642,21 +643,46 @@ std::vector<std::pair<GridKey, std::uint32_t>> binIntoGrid(std::size_t count, in
         for (int y = r.first[1]; y <= r.last[1]; ++y)
           for (int z = r.first[2]; z <= r.last[2]; ++z) {
             const GridKey key = gridKey(x, y, z, depth);
-            if (wanted(key) && (single || overlaps(p, gridCell(key, depth)))) pairs.emplace_back(key, p);
+            const std::optional<std::uint64_t> tag = tagOf(key);
+            if (tag && (single || overlaps(p, gridCell(key, depth)))) pairs.emplace_back(*tag, p);
           }
     }
   });
-  // Gathered and sorted on every core: on one, the 1.2M bunny's 1.5M pairs
-  // left the second core idle for 0.1 s. Distinct pairs: one order whatever
-  // the threads.
-  std::vector<std::size_t> offsets(perChunk.size() + 1, 0);
-  for (std::size_t chunk = 0; chunk < perChunk.size(); ++chunk) offsets[chunk + 1] = offsets[chunk] + perChunk[chunk].size();
-  std::vector<std::pair<GridKey, std::uint32_t>> all(offsets.back());
-  tbb::parallel_for(std::size_t{0}, perChunk.size(), [&](std::size_t chunk) {
-    std::copy(perChunk[chunk].begin(), perChunk[chunk].end(), all.begin() + static_cast<std::ptrdiff_t>(offsets[chunk]));
-  });
+  return perChunk;
+}
+
+// (cell key, primitive) for every coarse cell a primitive overlaps, sorted:
+// grouped by cell, primitives in increasing order within a cell.
+template <class BoundsOf, class Overlaps>
+std::vector<std::pair<GridKey, std::uint32_t>> binIntoGrid(std::size_t count, int depth, BoundsOf boundsOf,
+                                                           Overlaps overlaps) {
+  const auto perChunk =
+      overlapsByChunk(count, depth, boundsOf, overlaps, [](GridKey key) { return std::optional<std::uint64_t>(key); });
+  std::vector<std::pair<GridKey, std::uint32_t>> all;
+  for (const auto& pairs : perChunk) all.insert(all.end(), pairs.begin(), pairs.end());
   tbb::parallel_sort(all.begin(), all.end());
   return all;
+}
+
+// The primitives overlapping each of `cells` (sorted keys), in increasing
+// order: counted per cell, then filed chunk by chunk. Sorting the 1.2M
+// bunny's 1.4M (cell, triangle) pairs and grouping them took 0.07 s, the
+// grouping on one core (docs/benchmarks.md).
+template <class BoundsOf, class Overlaps>
+std::vector<IdList> binIntoCells(const std::vector<GridKey>& cells, std::size_t count, int depth, BoundsOf boundsOf,
+                                 Overlaps overlaps) {
+  const auto perChunk = overlapsByChunk(count, depth, boundsOf, overlaps, [&](GridKey key) {
+    const auto found = std::lower_bound(cells.begin(), cells.end(), key);
+    return found != cells.end() && *found == key ? std::optional<std::uint64_t>(found - cells.begin()) : std::nullopt;
+  });
+  std::vector<std::size_t> sizes(cells.size(), 0);
+  for (const auto& pairs : perChunk)
+    for (const auto& [cell, primitive] : pairs) ++sizes[cell];
+  std::vector<IdList> members(cells.size());
+  for (std::size_t cell = 0; cell < cells.size(); ++cell) members[cell].reserve(sizes[cell]);
+  for (const auto& pairs : perChunk)
+    for (const auto& [cell, primitive] : pairs) members[cell].push_back(primitive);
+  return members;
 }
 
 // ---- Points in Morton order ---------------------------------------------------
@@ -1724,17 +1750,14 @@ BuiltOctree buildOctree(const CoarseMesh& coarse, const DetailPrimitives& detail
   const int depth = settings.coarseDepth;
   const Groups coarseCells = groupByKey(binIntoGrid(
       coarse.triangles.size(), depth, [&](std::uint32_t t) { return coarseBounds(coarse, t); },
-      [&](std::uint32_t t, const Cell& cell) { return coarseOverlaps(coarse, t, cell); }, [](GridKey) { return true; }));
-  const auto occupied = [&](GridKey key) {
-    return std::binary_search(coarseCells.keys.begin(), coarseCells.keys.end(), key);
-  };
+      [&](std::uint32_t t, const Cell& cell) { return coarseOverlaps(coarse, t, cell); }));
   // M's triangles in the occupied coarse cells only; M's points in order.
   const bool points = detail.triangles.empty();
-  Groups detailCells;
+  std::vector<IdList> detailCells;
   if (!points)
-    detailCells = groupByKey(binIntoGrid(
-        detail.size(), depth, [&](std::uint32_t i) { return detailBounds(detail, i); },
-        [&](std::uint32_t i, const Cell& cell) { return detailOverlaps(detail, i, cell); }, occupied));
+    detailCells = binIntoCells(
+        coarseCells.keys, detail.size(), depth, [&](std::uint32_t i) { return detailBounds(detail, i); },
+        [&](std::uint32_t i, const Cell& cell) { return detailOverlaps(detail, i, cell); });
   const std::optional<PointOrder> pointOrder = points ? std::optional<PointOrder>(detail) : std::nullopt;
 
   BuiltOctree built;
@@ -1750,11 +1773,9 @@ BuiltOctree buildOctree(const CoarseMesh& coarse, const DetailPrimitives& detail
     first[i].cell = gridCell(key, depth);
     first[i].triangles = coarseCells.members[i];
     if (pointOrder) first[i].points = pointOrder->runOf(first[i].cell, pointOrder->all());
-    const auto found = std::lower_bound(detailCells.keys.begin(), detailCells.keys.end(), key);
-    if (found != detailCells.keys.end() && *found == key)
-      first[i].primitives = std::move(detailCells.members[static_cast<std::size_t>(found - detailCells.keys.begin())]);
+    if (!points) first[i].primitives = std::move(detailCells[i]);
   }
-  detailCells = Groups{};
+  detailCells = {};
   // Every node below the completion depth takes a texel at least: a budget
   // bounds the nodes, and reserving them spares the build (serial there)
   // copying the nodes into ever larger fresh memory (40 MB for the 1.2M
