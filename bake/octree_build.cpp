@@ -818,7 +818,7 @@ class FineSums {
       std::uint64_t key;
       std::uint32_t triangle, sums;  // sums: index into `sums`
     };
-    std::vector<Piece> pieces;
+    std::vector<Piece> pieces, sorted;
     std::vector<VariationSums> sums;
   };
 
@@ -881,12 +881,10 @@ class FineSums {
   }
 
   // The pieces grouped by cell and added up in (cell, triangle) order: the
-  // sums do not depend on the order the triangles came in.
+  // triangles come in increasing order, and the sort by cell keeps it.
   void addUpByCell(Scratch& scratch) {
-    std::vector<Scratch::Piece>& pieces = scratch.pieces;
-    std::sort(pieces.begin(), pieces.end(), [](const Scratch::Piece& a, const Scratch::Piece& b) {
-      return a.key != b.key ? a.key < b.key : a.triangle < b.triangle;
-    });
+    sortByCell(scratch.pieces, scratch.sorted, 3 * levels_);
+    const std::vector<Scratch::Piece>& pieces = scratch.pieces;
     std::size_t cells = 0;
     for (std::size_t k = 0; k < pieces.size(); ++k) cells += k == 0 || pieces[k].key != pieces[k - 1].key ? 1 : 0;
     keys_.reserve(cells);
@@ -903,6 +901,22 @@ class FineSums {
       triangles_.push_back(piece.triangle);
     }
     begin_.push_back(static_cast<std::uint32_t>(triangles_.size()));
+  }
+
+  // A stable sort by key (`keyBits` bits), least significant digit first,
+  // 11 bits a pass: one or two passes over the pieces, where std::sort by
+  // (key, triangle) took 2% of the 1.2M bunny's bake (docs/benchmarks.md).
+  static void sortByCell(std::vector<Scratch::Piece>& pieces, std::vector<Scratch::Piece>& spare, int keyBits) {
+    constexpr int kDigitBits = 11;
+    spare.resize(pieces.size());
+    for (int shift = 0; shift < keyBits; shift += kDigitBits) {
+      std::array<std::uint32_t, (1u << kDigitBits) + 1> start{};
+      const auto digit = [&](const Scratch::Piece& piece) { return (piece.key >> shift) & ((1u << kDigitBits) - 1); };
+      for (const Scratch::Piece& piece : pieces) ++start[digit(piece) + 1];
+      for (std::size_t d = 1; d < start.size(); ++d) start[d] += start[d - 1];
+      for (const Scratch::Piece& piece : pieces) spare[start[digit(piece)]++] = piece;
+      pieces.swap(spare);
+    }
   }
 
   // The grid coordinates at `depth` of the coarse cell's lower corner.
