@@ -6,6 +6,7 @@
 #include "core/timing.h"
 
 #include <spdlog/spdlog.h>
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -119,9 +120,13 @@ Projection projectOntoCoarse(const std::vector<Vec3f>& centres, const std::vecto
   constexpr std::size_t kChunk = 8192;
   tbb::parallel_for(std::size_t{0}, (centres.size() + kChunk - 1) / kChunk, [&](std::size_t chunk) {
     const std::size_t begin = chunk * kChunk, end = std::min(centres.size(), begin + kChunk);
+    // All forward, then all backward: one stream of like rays after the
+    // other, as the sampling casts them (sampling.cpp): the 1.2M bunny's
+    // setup 0.306 -> 0.278 s.
     std::vector<Ray> rays;
-    for (std::size_t i = begin; i < end; ++i)
-      for (const float direction : {1.0f, -1.0f}) {
+    rays.reserve(2 * (end - begin));
+    for (const float direction : {1.0f, -1.0f})
+      for (std::size_t i = begin; i < end; ++i) {
         Ray ray;
         ray.origin = centres[i];
         ray.direction = direction * normals[i];
@@ -131,8 +136,8 @@ Projection projectOntoCoarse(const std::vector<Vec3f>& centres, const std::vecto
     std::vector<RayHit> hits;
     coarse.caster->intersect(rays, hits);
     for (std::size_t i = begin; i < end; ++i) {
-      const RayHit& forward = hits[2 * (i - begin)];
-      const RayHit& backward = hits[2 * (i - begin) + 1];
+      const RayHit& forward = hits[i - begin];
+      const RayHit& backward = hits[(end - begin) + (i - begin)];
       if (!forward.hit() && !backward.hit()) {
         projected[i] = centres[i];
         continue;
@@ -169,6 +174,19 @@ std::optional<Vec3f> alongNormalOntoCorners(const Vec3f& centre, const Vec3f& no
   return centre + ((q0 - centre).dot(planeNormal) / length / facing) * normal;
 }
 
+// A triangle's area, centre and unit normal (zero when it has no area).
+struct TriangleLine {
+  float area;
+  Vec3f centre, normal;
+};
+
+TriangleLine lineOf(const Scan& mesh, const Triangle& t) {
+  const Vec3f &a = mesh.points.positions[t[0]], &b = mesh.points.positions[t[1]], &c = mesh.points.positions[t[2]];
+  const Vec3f areaNormal = 0.5f * (b - a).cross(c - a);
+  const float area = areaNormal.norm();
+  return {area, (a + b + c) / 3.0f, area > 0.0f ? Vec3f(areaNormal / area) : Vec3f(Vec3f::Zero())};
+}
+
 // M for the error metric (octree_build.h): in unit-cube coordinates, each
 // triangle shifted and each point moved to where it projects onto m.
 Result<octree::DetailPrimitives> detailForErrorMetric(const DetailSurface& surface, const CoarseSurface& coarse,
@@ -183,25 +201,32 @@ Result<octree::DetailPrimitives> detailForErrorMetric(const DetailSurface& surfa
     // other triangles cast rays from their centres (casting from every
     // centre took 6.3 s of the 7.2M-triangle torus's setup).
     const Projection corners = projectOntoCoarse(M.points.positions, M.points.normals, coarse, coarseNormals, reach);
+    // Each triangle's area and shift on every core; the areas then summed,
+    // and the triangles left to cast listed, in order (the loop on one core
+    // took 0.05 s of the 1.2M bunny's setup).
+    std::vector<float> areas(M.triangles.size());
+    std::vector<char> shifted(M.triangles.size(), 0);
+    std::vector<Vec3f> shifts(M.triangles.size(), Vec3f::Zero());
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, M.triangles.size(), 4096), [&](const auto& range) {
+      for (std::size_t i = range.begin(); i < range.end(); ++i) {
+        const TriangleLine line = lineOf(M, M.triangles[i]);
+        areas[i] = line.area;
+        if (const auto projected = alongNormalOntoCorners(line.centre, line.normal, corners, M.triangles[i])) {
+          shifts[i] = transform.toUnit(*projected) - transform.toUnit(line.centre);
+          shifted[i] = 1;
+        }
+      }
+    });
+    double totalArea = 0.0;
+    for (const float area : areas) totalArea += area;
     std::vector<Vec3f> centres, normals;
     std::vector<std::size_t> fromCentre;
-    double totalArea = 0.0;
-    std::vector<Vec3f> shifts(M.triangles.size(), Vec3f::Zero());
     for (std::size_t i = 0; i < M.triangles.size(); ++i) {
-      const Triangle& t = M.triangles[i];
-      const Vec3f &a = M.points.positions[t[0]], &b = M.points.positions[t[1]], &c = M.points.positions[t[2]];
-      const Vec3f areaNormal = 0.5f * (b - a).cross(c - a);
-      const float area = areaNormal.norm();
-      totalArea += area;
-      const Vec3f centre = (a + b + c) / 3.0f;
-      const Vec3f normal = area > 0.0f ? Vec3f(areaNormal / area) : Vec3f(Vec3f::Zero());
-      if (const auto projected = alongNormalOntoCorners(centre, normal, corners, t)) {
-        shifts[i] = transform.toUnit(*projected) - transform.toUnit(centre);
-        continue;
-      }
+      if (shifted[i]) continue;
+      const TriangleLine line = lineOf(M, M.triangles[i]);
       fromCentre.push_back(i);
-      centres.push_back(centre);
-      normals.push_back(normal);
+      centres.push_back(line.centre);
+      normals.push_back(line.normal);
     }
     const std::vector<Vec3f> projected = projectOntoCoarse(centres, normals, coarse, coarseNormals, reach).positions;
     for (std::size_t k = 0; k < fromCentre.size(); ++k)
