@@ -288,6 +288,12 @@ void countNodes(const Octree& octree, BakeReport& report) {
   }
 }
 
+// format's ParallelRanges on TBB's threads.
+void onEveryCore(std::size_t count, const std::function<void(std::size_t, std::size_t)>& body) {
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 4096),
+                    [&](const tbb::blocked_range<std::size_t>& range) { body(range.begin(), range.end()); });
+}
+
 }  // namespace
 
 // Rough shares of a bake's time (measured on the bumpy bunny): setup 5%,
@@ -367,7 +373,7 @@ Result<Bake> bakeWith(const DetailSurface& detail, const CoarseSurface& coarseSu
 
   phase = Stopwatch();
   auto texture = encodeApo(built.octree, completeDepth, options.encoding, static_cast<std::uint8_t>(options.coarseDepth),
-                           static_cast<std::uint8_t>(options.maxDepth));
+                           static_cast<std::uint8_t>(options.maxDepth), onEveryCore);
   if (!texture) return texture.error();
   bake.texture = std::move(texture).value();
   bake.texture.origin = coarse.origin;  // m's local frame, for readers of the file

@@ -12,6 +12,7 @@
 #include <array>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -120,11 +121,18 @@ struct ApoTexture {
   bool needsCoarseNormals() const { return defersToCoarse || twoSidedLeaves > 0; }
 };
 
+// Calls body(begin, end) over ranges covering [0, count), on the caller's
+// threads as it sees fit (the bake's thread pool): the encoder's work that
+// does not depend on order, its output the same whatever the threads.
+using ParallelRanges =
+    std::function<void(std::size_t count, const std::function<void(std::size_t begin, std::size_t end)>& body)>;
+
 // Encodes the octree: levels above `completeDepth` are replaced by a dense
 // grid of (2^completeDepth)^3 entries; Usage error when completeDepth exceeds
-// 10 or a relative offset does not fit 24 bits.
+// 10 or a relative offset does not fit 24 bits. The nodes' normals are
+// encoded through `parallel` (none: on this thread).
 Result<ApoTexture> encodeApo(const Octree& octree, int completeDepth, NormalEncoding encoding,
-                             std::uint8_t coarseDepth, std::uint8_t maxDepth);
+                             std::uint8_t coarseDepth, std::uint8_t maxDepth, const ParallelRanges& parallel = {});
 // The octree back from the texture (levels below the grid decoded; the grid's
 // nodes become the children of complete internal levels with zero normals).
 Result<Octree> decodeApo(const ApoTexture& texture);

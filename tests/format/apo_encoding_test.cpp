@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <limits>
 #include <random>
+#include <thread>
 
 namespace apo {
 namespace {
@@ -252,6 +253,29 @@ TEST(EncodeApo, TextureShapeAndDeterminism) {
   EXPECT_EQ(texture.height, texel::rowsFor(texture.usedTexels(), texture.width));
   EXPECT_EQ(texture.texels.size(), 4ull * texture.width * texture.height);
   EXPECT_EQ(encodeOrDie(octree, 2, NormalEncoding::Oct24).texels, texture.texels);
+}
+
+// The normals' codes made in ranges, out of order and on other threads,
+// give the texture made on one thread, byte for byte.
+TEST(EncodeApo, TheTextureDoesNotDependOnHowTheCodesAreShared) {
+  const Octree octree = test::randomOctree(9, 2, 7, 0.6);
+  ASSERT_GT(octree.nodes.size(), 1000u);
+  std::size_t ranges = 0;
+  const ParallelRanges backwardsOnThreads = [&](std::size_t count, const auto& body) {
+    constexpr std::size_t kRange = 97;
+    std::vector<std::thread> threads;
+    for (std::size_t end = count; end > 0; end -= std::min(end, kRange)) {
+      threads.emplace_back(body, end - std::min(end, kRange), end);
+      ++ranges;
+    }
+    for (std::thread& thread : threads) thread.join();
+  };
+  for (const NormalEncoding encoding : {NormalEncoding::Oct24, NormalEncoding::Xyz8}) {
+    const Result<ApoTexture> shared = encodeApo(octree, 2, encoding, 2, 7, backwardsOnThreads);
+    ASSERT_TRUE(shared.ok()) << shared.error().message;
+    EXPECT_EQ(shared->texels, encodeOrDie(octree, 2, encoding).texels);
+  }
+  EXPECT_GT(ranges, 20u);  // the codes were shared out
 }
 
 using test::lookupPoints;
