@@ -319,7 +319,9 @@ TEST_F(BumpySphereRender, PointsAsSplatsShowTheSameSurfaceAsTheMesh) {
       EXPECT_GT(angles.pixels, 3000u);
       EXPECT_LT(angles.mean, pointLod ? 1.0 : 0.6) << "view " << v;
       EXPECT_LT(compareImages(splats.shaded, mesh.shaded, splats.normals, mesh.normals).silhouetteMismatch, 0.03) << "view " << v;
-      if (pointLod) EXPECT_LT((*fromPoints)[v].cost.referenceDrawn, points.points.size() / 2);
+      if (pointLod) {
+        EXPECT_LT((*fromPoints)[v].cost.referenceDrawn, points.points.size() / 2);
+      }
     }
   }
 }

@@ -230,7 +230,9 @@ TEST(PointLodRender, TheGeometryShaderDrawsTheLevelsTheCpuChooses) {
       }
       EXPECT_EQ(view.cost.referenceSent, lod->patches.size());
       EXPECT_EQ(view.cost.referenceDrawn, expected) << "threshold " << threshold;
-      if (threshold == 1000.0f) EXPECT_EQ(view.cost.referenceDrawn, lod->patches.size());
+      if (threshold == 1000.0f) {
+        EXPECT_EQ(view.cost.referenceDrawn, lod->patches.size());
+      }
     }
   }
   // Against every point's disc at the default threshold: the same sphere,
