@@ -1362,34 +1362,52 @@ bool triangleOverlapsBox(const Vec3f& a, const Vec3f& b, const Vec3f& c, const C
 // One projection of the corners per axis for the eight children: a child's
 // centre shifts it by its offset along the axis (a child's half width and
 // its centre's offset on each axis are both a quarter of the cell's width).
+// Where a child's gap on an axis is within rounding of zero (m touching the
+// child's box: CAD models whose faces pass through cells' corners), the
+// child is tested apart, so that every answer is triangleOverlapsBox's.
 std::uint8_t childrenMeeting(const Vec3f& a, const Vec3f& b, const Vec3f& c, const Cell& cell, std::uint8_t wanted) {
+  // Far above either computation's rounding (float's epsilon is 1.2e-7),
+  // relative to the magnitudes the projections are made of.
+  constexpr float kRounding = 1e-5f;
   const float quarter = 0.25f * cell.width;
   const Vec3f v0 = a - cell.centre, v1 = b - cell.centre, v2 = c - cell.centre;
-  unsigned meeting = wanted;
+  const float reach = v0.cwiseAbs().cwiseMax(v1.cwiseAbs()).cwiseMax(v2.cwiseAbs()).maxCoeff() + 2.0f * quarter;
+  unsigned meeting = wanted, unsure = 0;
+  // `gap` > 0: the children and the triangle are apart along the axis.
+  const auto judge = [&](unsigned children, float gap, float tolerance) {
+    if (gap > tolerance)
+      meeting &= ~children;
+    else if (gap >= -tolerance)
+      unsure |= children;
+  };
   // Box axes: the lower children on an axis (bit 1, childCentre) span
   // [-2 quarter, 0] from the centre, the upper ones [0, 2 quarter].
   constexpr std::array<unsigned, 3> kLowerOn{0xF0, 0xCC, 0xAA};
   for (int axis = 0; axis < 3; ++axis) {
     const float lo = std::min({v0[axis], v1[axis], v2[axis]}), hi = std::max({v0[axis], v1[axis], v2[axis]});
-    if (lo > 0.0f || hi < -2.0f * quarter) meeting &= ~kLowerOn[axis];
-    if (hi < 0.0f || lo > 2.0f * quarter) meeting &= kLowerOn[axis];
+    judge(kLowerOn[axis], std::max(lo, -2.0f * quarter - hi), kRounding * reach);
+    judge(~kLowerOn[axis] & 0xFFu, std::max(lo - 2.0f * quarter, -hi), kRounding * reach);
   }
   const auto separate = [&](const Vec3f& axis) {
     const float p0 = axis.dot(v0), p1 = axis.dot(v1), p2 = axis.dot(v2);
     const float lo = std::min({p0, p1, p2}), hi = std::max({p0, p1, p2});
     const Vec3f shift = quarter * axis;
     const float radius = quarter * axis.cwiseAbs().sum();
+    const float tolerance = kRounding * axis.cwiseAbs().sum() * reach;
     for (unsigned child = 0; child < 8; ++child) {
       if (!(meeting & (1u << child))) continue;
       const float offset = ((child & 4) ? -shift.x() : shift.x()) + ((child & 2) ? -shift.y() : shift.y()) +
                            ((child & 1) ? -shift.z() : shift.z());
-      if (lo - offset > radius || hi - offset < -radius) meeting &= ~(1u << child);
+      judge(1u << child, std::max(lo - offset - radius, -radius - (hi - offset)), tolerance);
     }
   };
   const std::array<Vec3f, 3> edges = {v1 - v0, v2 - v1, v0 - v2};
   if (meeting != 0) separate(edges[0].cross(edges[1]));
   for (const Vec3f& edge : edges)
     for (int axis = 0; axis < 3 && meeting != 0; ++axis) separate(Vec3f::Unit(axis).cross(edge));
+  for (unsigned child = 0; child < 8; ++child)
+    if ((meeting & unsure & (1u << child)) && !triangleOverlapsBox(a, b, c, cell.child(static_cast<int>(child))))
+      meeting &= ~(1u << child);
   return static_cast<std::uint8_t>(meeting);
 }
 

@@ -27,10 +27,11 @@ struct Cell {
 bool triangleOverlapsBox(const Vec3f& a, const Vec3f& b, const Vec3f& c, const Cell& cell);
 
 // The children of `cell` among `wanted` (bit c: child c) whose closed boxes
-// meet triangle abc: triangleOverlapsBox made once for the eight. Testing
-// each child apart projected the corners again for each: m's triangles,
-// tested against the children and grandchildren of every leaf evaluated,
-// took 7% of the 1.2M bunny's bake so (docs/benchmarks.md).
+// meet triangle abc, as triangleOverlapsBox answers for each: its test made
+// once for the eight, each child whose answer is within rounding tested
+// apart. Testing each child apart projected the corners again for each: m's
+// triangles, tested against the children and grandchildren of every leaf
+// evaluated, took 7% of the 1.2M bunny's bake so (docs/benchmarks.md).
 std::uint8_t childrenMeeting(const Vec3f& a, const Vec3f& b, const Vec3f& c, const Cell& cell,
                              std::uint8_t wanted = 0xFF);
 

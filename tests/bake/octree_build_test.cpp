@@ -99,6 +99,12 @@ TEST(ChildrenMeeting, AgreesWithEachChildTestedApart) {
     check(a, b, c, cell, -1 - axis);
     EXPECT_EQ(std::popcount(static_cast<unsigned>(childrenMeeting(a, b, c, cell))), 8);
   }
+  // Touching at a corner within rounding (colored_tetra.ply's m: the face
+  // x + y + z = 1.0098 through the corner (0.421875, 0.578125) of a cell's
+  // lower face, at its edge z = 0.0098): tested there as each child alone.
+  const Vec3f tetra(0.00980392192f, 0.00980392192f, 0.990196049f);
+  check(tetra, Vec3f(0.990196049f, 0.00980392192f, 0.00980392192f), Vec3f(0.00980392192f, 0.990196049f, 0.00980392192f),
+        Cell{Vec3f(0.421875f, 0.578125f, 0.015625f), 0.03125f, 5}, -4);
   EXPECT_GT(meetings, 5000);  // every outcome was exercised
   EXPECT_GT(misses, 50000);
   EXPECT_GT(partly, 2000) << meetings << " " << misses;
