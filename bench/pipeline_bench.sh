@@ -14,7 +14,9 @@
 #      the failures, and the APO against m alone.
 # Extra batch options (e.g. --no-filter) go in APO_OPTIONS.
 # Usage (after the README's setup and build): bash bench/pipeline_bench.sh [OUTDIR]
-# Takes about 20 minutes on this machine.
+# Takes about 13-20 minutes on this machine and writes about 25 GB under
+# OUTDIR (23 GB of runs, renders and reports for the first batch): remove
+# it after reading the tables.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-out/bench/pipeline}
