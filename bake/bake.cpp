@@ -223,6 +223,9 @@ Result<octree::DetailPrimitives> detailForErrorMetric(const DetailSurface& surfa
     std::vector<std::size_t> fromCentre;
     for (std::size_t i = 0; i < M.triangles.size(); ++i) {
       if (shifted[i]) continue;
+      // Made again for the triangles left (a fifth of the bunny's): keeping
+      // every triangle's centre and normal from the pass above would take
+      // 24 bytes each.
       const TriangleLine line = lineOf(M, M.triangles[i]);
       fromCentre.push_back(i);
       centres.push_back(line.centre);

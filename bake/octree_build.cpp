@@ -818,7 +818,7 @@ class FineSums {
       std::uint64_t key;
       std::uint32_t triangle, sums;  // sums: index into `sums`
     };
-    std::vector<Piece> pieces, sorted;
+    std::vector<Piece> pieces, spare;  // spare: the radix sort's other buffer
     std::vector<VariationSums> sums;
   };
 
@@ -883,7 +883,7 @@ class FineSums {
   // The pieces grouped by cell and added up in (cell, triangle) order: the
   // triangles come in increasing order, and the sort by cell keeps it.
   void addUpByCell(Scratch& scratch) {
-    sortByCell(scratch.pieces, scratch.sorted, 3 * levels_);
+    sortByCell(scratch.pieces, scratch.spare, 3 * levels_);
     const std::vector<Scratch::Piece>& pieces = scratch.pieces;
     std::size_t cells = 0;
     for (std::size_t k = 0; k < pieces.size(); ++k) cells += k == 0 || pieces[k].key != pieces[k - 1].key ? 1 : 0;
