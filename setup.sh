@@ -10,7 +10,7 @@ PACKAGES=(
   build-essential cmake pkg-config git ca-certificates
   # geometry and scan processing
   libpcl-dev libflann-dev libnanoflann-dev libcgal-dev libembree-dev libglm-dev libopen3d-dev
-  libeigen3-dev libtbb-dev libmeshoptimizer-dev libdraco-dev
+  libeigen3-dev libtbb-dev libboost-dev libmeshoptimizer-dev libdraco-dev
   # headless rendering
   libosmesa6-dev
   # command line, formats, logging, hashing

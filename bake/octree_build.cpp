@@ -6,6 +6,7 @@
 // error they remove per texel, until the texel budget is spent.
 #include "bake/octree_build.h"
 
+#include <boost/container/small_vector.hpp>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
@@ -34,6 +35,11 @@ namespace {
 // a tenth of the 1.2M-triangle build freeing them (docs/benchmarks.md, "A
 // faster build"), TBB's scalable allocator keeps per-thread free lists.
 using IdList = std::vector<std::uint32_t, tbb::scalable_allocator<std::uint32_t>>;
+
+// A leaf's list of m's triangles, held in the leaf up to two: 96% of the
+// 1.2M bunny's leaves hold one or two, and their lists' allocations were
+// most of the evaluations' (docs/benchmarks.md).
+using CoarseIdList = boost::container::small_vector<std::uint32_t, 2, tbb::scalable_allocator<std::uint32_t>>;
 
 // ---- Geometry -------------------------------------------------------------
 
@@ -547,15 +553,35 @@ LeafError errorInCell(const DetailPrimitives& detail, std::span<const std::uint3
   return leafErrorOf(sums, withCoarse, deferToCoarse, twoSides);
 }
 
+// Lists filed child by child, then copied into lists of their exact size:
+// grown one push at a time, the children's lists took several allocations
+// each, and the allocators a twelfth of the 1.2M bunny's bake (perf).
+// Reused from one evaluation to the next on a thread.
+struct ChildFiling {
+  std::array<std::vector<std::uint32_t>, 8> lists;
+
+  void clear() {
+    for (auto& list : lists) list.clear();
+  }
+  template <typename List = IdList>
+  List take(int child) const {
+    return List(lists[child].begin(), lists[child].end());
+  }
+};
+
 // Splits m's triangles among the eight children of `cell`.
-std::array<IdList, 8> distributeCoarse(const CoarseMesh& m, const IdList& triangles, const Cell& cell) {
-  std::array<IdList, 8> children;
+std::array<CoarseIdList, 8> distributeCoarse(const CoarseMesh& m, const CoarseIdList& triangles, const Cell& cell,
+                                       ChildFiling& filing) {
+  filing.clear();
   for (const std::uint32_t t : triangles) {
     const Triangle& tri = m.triangles[t];
     const unsigned meeting = childrenMeeting(m.positions[tri[0]], m.positions[tri[1]], m.positions[tri[2]], cell);
     for (int c = 0; c < 8; ++c)
-      if (meeting & (1u << c)) children[c].push_back(t);
+      if (meeting & (1u << c)) filing.lists[c].push_back(t);
   }
+  std::array<CoarseIdList, 8> children;
+  for (int c = 0; c < 8; ++c)
+    if (!filing.lists[c].empty()) children[c] = filing.take<CoarseIdList>(c);
   return children;
 }
 
@@ -563,7 +589,7 @@ std::array<IdList, 8> distributeCoarse(const CoarseMesh& m, const IdList& triang
 // lists: a child counts from its first triangle on, and the others are not
 // tested against it again (counting m's triangles through the lists spent
 // 8% of the 1.2M bunny's bake in separating-axis tests).
-std::uint8_t childrenHoldingCoarse(const CoarseMesh& m, const IdList& triangles, const Cell& cell) {
+std::uint8_t childrenHoldingCoarse(const CoarseMesh& m, const CoarseIdList& triangles, const Cell& cell) {
   unsigned holding = 0;
   for (const std::uint32_t t : triangles) {
     const Triangle& tri = m.triangles[t];
@@ -939,7 +965,7 @@ class FineSums {
 struct Leaf {
   std::uint32_t node = 0;
   Cell cell;
-  IdList triangles;        // m's
+  CoarseIdList triangles;  // m's
   IdList primitives;       // M's triangles (M a mesh), at or below the sum depth
   const FineSums* fine = nullptr;  // M's triangles' sums (M a mesh), above the sum depth
   KeyRun fineRun;
@@ -1073,17 +1099,19 @@ class Refinement {
 
   // The leaf's split: m's triangles into the children (only those holding
   // some of m are kept), M's primitives into the kept ones, their errors.
-  Candidate evaluate(Leaf leaf) const {
+  // `filing`: the thread's scratch lists.
+  Candidate evaluate(Leaf leaf, ChildFiling& filing) const {
     Candidate candidate;
     const Cell& cell = leaf.cell;
-    auto childTriangles = coarseInChildren(leaf);
+    auto childTriangles = distributeCoarse(coarse_, leaf.triangles, leaf.cell, filing);
     for (int c = 0; c < 8; ++c)
       if (!childTriangles[c].empty()) candidate.mask |= static_cast<std::uint8_t>(1u << c);
     if (candidate.mask != 0) {
       ChildErrors childErrors = points_      ? distributePoints(leaf, candidate.mask)
                                 : leaf.fine ? distributeFineSums(leaf, candidate.mask)
-                                            : distributeTriangles(leaf, candidate.mask);
+                                            : distributeTriangles(leaf, candidate.mask, filing);
       double childError = 0.0;
+      candidate.children.reserve(static_cast<std::size_t>(std::popcount(candidate.mask)));
       for (int c = 0; c < 8; ++c) {
         if (!(candidate.mask & (1u << c))) continue;
         Leaf child;
@@ -1130,11 +1158,6 @@ class Refinement {
   }
 
  private:
-  // m's triangles in each child of the leaf's cell.
-  std::array<IdList, 8> coarseInChildren(const Leaf& leaf) const {
-    return distributeCoarse(coarse_, leaf.triangles, leaf.cell);
-  }
-
   bool mayBeTwoSided(const Cell& cell) const {
     return settings_.twoSidedLeaves && cell.depth > settings_.completeDepth;
   }
@@ -1180,8 +1203,9 @@ class Refinement {
   // more of the build: docs/benchmarks.md, "A faster build"). A triangle
   // whose part in a child has no area is not filed there: it adds nothing
   // below.
-  ChildErrors distributeTriangles(const Leaf& leaf, std::uint8_t mask) const {
+  ChildErrors distributeTriangles(const Leaf& leaf, std::uint8_t mask, ChildFiling& filing) const {
     ChildErrors out;
+    filing.clear();
     std::array<VariationSums, 8> sums;
     const Cell& cell = leaf.cell;
     const GridAxes children = gridInside(cell, 1);
@@ -1204,13 +1228,15 @@ class Refinement {
       GridSweep(triangle.frame, children).run(wanted, [&](const GridPart& part) {
         const int c = (part.cell[0] == 0 ? 4 : 0) | (part.cell[1] == 0 ? 2 : 0) | (part.cell[2] == 0 ? 1 : 0);
         sums[c].addPart(triangle, momentsOf(part));
-        out.primitives[c].push_back(t);
+        filing.lists[c].push_back(t);
       });
     }
     const bool withCoarse = detail_.coarseKnown;
     for (int c = 0; c < 8; ++c)
-      if (mask & (1u << c))
+      if (mask & (1u << c)) {
+        out.primitives[c] = filing.take(c);
         out.errors[c] = leafErrorOf(sums[c], withCoarse, settings_.deferToCoarse, mayBeTwoSided(cell.child(c)));
+      }
     return out;
   }
 
@@ -1525,16 +1551,16 @@ class FinishedLeaves {
         node.twoSided = error.showsTwoSides();
         node.sideAxis = static_cast<std::uint8_t>(error.sideAxis);
       }
-      IdList& triangles = trianglesOf(i);
+      CoarseIdList& triangles = trianglesOf(i);
       std::copy(triangles.begin(), triangles.end(), built.leafTriangles.begin() + static_cast<std::ptrdiff_t>(begin[n]));
-      IdList().swap(triangles);
+      CoarseIdList().swap(triangles);
     });
   }
 
  private:
   struct Record {
     std::uint32_t node;
-    IdList triangles;
+    CoarseIdList triangles;
     bool showsCoarse, twoSided;
     std::uint8_t sideAxis;
   };
@@ -1561,7 +1587,7 @@ class FinishedLeaves {
   std::uint32_t nodeOf(std::size_t i) const {
     return i < records_.size() ? records_[i].node : inPlace_[i - records_.size()]->node;
   }
-  IdList& trianglesOf(std::size_t i) {
+  CoarseIdList& trianglesOf(std::size_t i) {
     return i < records_.size() ? records_[i].triangles : inPlace_[i - records_.size()]->triangles;
   }
 
@@ -1653,7 +1679,9 @@ class GlobalRefinement {
     std::size_t batched = 0;
     const auto evaluateFrom = [&](std::size_t end) {
       evaluations.run([this, evaluated, first = batched, end] {
-        for (std::size_t i = first; i < end; ++i) evaluated[i] = refinement_.evaluate(std::move(evaluated[i].leaf));
+        ChildFiling& filing = filings_.local();
+        for (std::size_t i = first; i < end; ++i)
+          evaluated[i] = refinement_.evaluate(std::move(evaluated[i].leaf), filing);
       });
       batched = end;
     };
@@ -1759,6 +1787,7 @@ class GlobalRefinement {
   // A round's leaves to evaluate; kept from round to round, as fresh memory
   // for each cost the kernel's zeroing of its pages.
   std::vector<Candidate> toEvaluate_;
+  tbb::enumerable_thread_specific<ChildFiling> filings_;  // the evaluations' scratch lists, per thread
 };
 
 }  // namespace
@@ -1816,7 +1845,7 @@ BuiltOctree buildOctree(const CoarseMesh& coarse, const DetailPrimitives& detail
     const GridKey key = coarseCells.keys[i];
     first[i].node = coarseNodes[i];
     first[i].cell = gridCell(key, depth);
-    first[i].triangles = coarseCells.members[i];
+    first[i].triangles.assign(coarseCells.members[i].begin(), coarseCells.members[i].end());
     if (pointOrder) first[i].points = pointOrder->runOf(first[i].cell, pointOrder->all());
     if (!points) first[i].primitives = std::move(detailCells[i]);
   }
