@@ -981,7 +981,9 @@ struct Leaf {
 struct Candidate {
   Leaf leaf;
   std::uint8_t mask = 0;
-  std::vector<Leaf> children;  // in increasing child index
+  // In increasing child index; made on the evaluating threads and freed on
+  // the main one, as the leaves' lists are (IdList).
+  std::vector<Leaf, tbb::scalable_allocator<Leaf>> children;
   double gain = 0.0;           // L2,1 removed by the split
   double largestChildError = 0.0;
 
@@ -1651,7 +1653,7 @@ class GlobalRefinement {
     fineSums_ = {};
     toEvaluate_ = {};
     tbb::parallel_for(std::size_t{0}, slots_.size(), [&](std::size_t i) {
-      std::vector<Leaf>().swap(slots_[i].children);
+      decltype(Candidate::children)().swap(slots_[i].children);
       IdList().swap(slots_[i].leaf.primitives);
     });
   }

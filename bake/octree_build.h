@@ -44,6 +44,10 @@ double polygonArea(const std::vector<Vec3f>& polygon);
 // reads every triangle once per level it descends, and corners, normals and
 // m's normals gathered from four arrays cost a cache miss each.
 struct DetailTriangle {
+  // Left unset (not `= default`, which would zero it): ofMesh writes every
+  // record on all cores, and so faults the memory in on all cores, where
+  // the vector's zeroing took one (130 MB for the 1.2M-triangle bunny).
+  DetailTriangle() {}  // NOLINT(modernize-use-equals-default)
   std::array<Vec3f, 3> corners;        // unit-cube coordinates, moved onto m
   std::array<Vec3f, 3> normals;        // M's normals at the corners
   std::array<Vec3f, 3> coarseNormals;  // m's normals where the corners project (DetailPrimitives::coarseKnown)

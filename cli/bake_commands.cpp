@@ -3,6 +3,7 @@
 #include "cli/command_support.h"
 #include "cli/stage_options.h"
 #include "core/file_io.h"
+#include "core/geometry.h"
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -25,6 +26,10 @@ int runBake(const BakeCommand& command) {
   const auto threads = limitThreads(command.arguments.threads);
   auto detail = readScan(command.detail);
   if (!detail) return reportFailure(detail.error());
+  // A mesh's vertex normals added here, in place: bakeApo adds them to a copy
+  // of M (the 1.2M bunny's 21 MB copied on one core).
+  if (detail->isMesh() && detail->points.normals.size() != detail->points.size())
+    detail->points.normals = areaWeightedVertexNormals(*detail);
   auto coarse = readScan(command.coarse);
   if (!coarse) return reportFailure(coarse.error());
   if (!coarse->isMesh())
