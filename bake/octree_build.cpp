@@ -1652,6 +1652,7 @@ class GlobalRefinement {
   void releaseSplitState() {
     fineSums_ = {};
     toEvaluate_ = {};
+    evaluating_ = {};
     tbb::parallel_for(std::size_t{0}, slots_.size(), [&](std::size_t i) {
       decltype(Candidate::children)().swap(slots_[i].children);
       IdList().swap(slots_[i].leaf.primitives);
@@ -1670,23 +1671,29 @@ class GlobalRefinement {
     // The leaves to evaluate are evaluated on the other cores as they come,
     // in batches, while this thread goes on popping and splitting (done
     // after the pops, the evaluation left the second core idle for a fifth
-    // of the 1.2M bunny's build). Each result lands at its leaf's index, and
-    // is read only after the wait: the round is the same on any number of
-    // threads. Reserved: no batch may see its leaves move.
-    std::vector<Candidate>& toEvaluate = toEvaluate_;
+    // of the 1.2M bunny's build). Each is evaluated in its slot, through an
+    // address taken here (the slots' store may grow meanwhile), and read
+    // only after the wait: the round is the same on any number of threads.
+    // In place, this thread moves no candidate in and out of the slots for
+    // them (bunny build -3%).
+    std::vector<std::uint32_t>& toEvaluate = toEvaluate_;
+    std::vector<Candidate*>& evaluating = evaluating_;
     toEvaluate.clear();
-    toEvaluate.reserve(count);
-    Candidate* const evaluated = toEvaluate.data();
+    evaluating.clear();
     tbb::task_group evaluations;
     std::size_t batched = 0;
     const auto evaluateFrom = [&](std::size_t end) {
-      evaluations.run([this, evaluated, first = batched, end] {
+      evaluations.run([this, candidates = evaluating.data(), first = batched, end] {
         ChildFiling& filing = filings_.local();
-        for (std::size_t i = first; i < end; ++i)
-          evaluated[i] = refinement_.evaluate(std::move(evaluated[i].leaf), filing);
+        for (std::size_t i = first; i < end; ++i) {
+          Candidate& candidate = *candidates[i];
+          candidate = refinement_.evaluate(std::move(candidate.leaf), filing);
+        }
       });
       batched = end;
     };
+    // Reserved: no batch may see the addresses move.
+    evaluating.reserve(count);
     bool budgetReached = false;
     for (std::size_t k = 0; k < count && !queue_.empty(); ++k) {
       const QueueEntry entry = queue_.pop();
@@ -1695,32 +1702,39 @@ class GlobalRefinement {
       // thread's pops, takes and splits took 0.3 s of the 1.2M bunny's
       // build, while one core evaluated; build 1.252 -> 1.219 s).
       if (!queue_.empty()) prefetchCandidate(slots_[queue_.top().candidate()]);
-      Candidate candidate = take(entry.candidate());
       if (!entry.evaluated()) {
-        toEvaluate.push_back(std::move(candidate));
-        if (toEvaluate.size() - batched == kEvaluationBatch) evaluateFrom(toEvaluate.size());
+        toEvaluate.push_back(entry.candidate());
+        evaluating.push_back(&slots_[entry.candidate()]);
+        if (evaluating.size() - batched == kEvaluationBatch) evaluateFrom(evaluating.size());
         continue;
       }
+      const std::uint32_t slot = entry.candidate();
+      Candidate& candidate = slots_[slot];
       if (budgeted && outcome_.texels + candidate.texels() > settings_.budgetTexels) {
         // Less than one split's texels (at most 9) are left: stop here.
         finished_.add(std::move(candidate.leaf), outcome_);
+        freeSlots_.push_back(slot);
         budgetReached = true;
         break;
       }
-      split(std::move(candidate));
+      split(candidate);
+      freeSlots_.push_back(slot);  // after the split: its children must not take the slot
     }
-    if (batched < toEvaluate.size()) evaluateFrom(toEvaluate.size());
+    if (batched < evaluating.size()) evaluateFrom(evaluating.size());
     evaluations.wait();
-    for (Candidate& candidate : toEvaluate) {
-      if (Refinement::worthSplitting(candidate))
-        enqueue(std::move(candidate), true);
-      else
-        finished_.add(std::move(candidate.leaf), outcome_);
+    for (const std::uint32_t slot : toEvaluate) {
+      if (Refinement::worthSplitting(slots_[slot])) {
+        queueSlot(slot, true);
+      } else {
+        finished_.add(std::move(slots_[slot].leaf), outcome_);
+        freeSlots_.push_back(slot);
+      }
     }
     return budgetReached;
   }
 
-  void split(Candidate candidate) {
+  // The candidate's children moved out into the tree and the queue.
+  void split(Candidate& candidate) {
     outcome_.texels += candidate.texels();
     OctreeNode& parent = nodes_[candidate.leaf.node];
     parent.firstChild = static_cast<std::uint32_t>(nodes_.size());
@@ -1741,10 +1755,11 @@ class GlobalRefinement {
     }
     Candidate candidate;
     candidate.leaf = std::move(leaf);
-    enqueue(std::move(candidate), false);
+    queueSlot(put(std::move(candidate)), false);
   }
 
-  void enqueue(Candidate candidate, bool evaluated) {
+  void queueSlot(std::uint32_t slot, bool evaluated) {
+    const Candidate& candidate = slots_[slot];
     const LeafError& error = candidate.leaf.error;
     // Unevaluated: a split is worth at most the leaf's one-normal L2,1 (its
     // gain, or a child's error) and adds at least 1 texel per kept child and
@@ -1756,7 +1771,7 @@ class GlobalRefinement {
     const int texelsAtLeast = 2 - static_cast<int>(error.texels()) + std::max(1, candidate.leaf.keptChildren);
     const double key = evaluated ? candidate.valuePerTexel() : error.variation / static_cast<double>(texelsAtLeast);
     const std::uint32_t node = candidate.leaf.node;
-    queue_.push({key, node, put(std::move(candidate)) | (evaluated ? QueueEntry::kEvaluated : 0u)});
+    queue_.push({key, node, slot | (evaluated ? QueueEntry::kEvaluated : 0u)});
   }
 
   // Candidates live in reused slots: the queue holds only their keys.
@@ -1770,10 +1785,6 @@ class GlobalRefinement {
     slots_[slot] = std::move(candidate);
     return slot;
   }
-  Candidate take(std::uint32_t slot) {
-    freeSlots_.push_back(slot);
-    return std::move(slots_[slot]);
-  }
 
   const DetailPrimitives& detail_;
   const BuildSettings& settings_;
@@ -1786,9 +1797,10 @@ class GlobalRefinement {
   std::deque<Candidate> slots_;  // a deque: growing it moves no candidate
   std::vector<std::uint32_t> freeSlots_;
   SplitQueue queue_;
-  // A round's leaves to evaluate; kept from round to round, as fresh memory
-  // for each cost the kernel's zeroing of its pages.
-  std::vector<Candidate> toEvaluate_;
+  // A round's leaves to evaluate: their slots and addresses; kept from round
+  // to round, as fresh memory for each cost the kernel's zeroing of its pages.
+  std::vector<std::uint32_t> toEvaluate_;
+  std::vector<Candidate*> evaluating_;
   tbb::enumerable_thread_specific<ChildFiling> filings_;  // the evaluations' scratch lists, per thread
 };
 
