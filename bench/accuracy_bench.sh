@@ -17,7 +17,7 @@ cd "$(dirname "$0")/.."
 out=${1:-out/bench/accuracy}
 mkdir -p "$out/bin"
 : >"$out/log.txt"
-cp build/apo build/apo-engine build/apo_accuracy "$out/bin/"
+cp build/apo build/apo-engine build/apo-pcl.so build/apo_accuracy "$out/bin/"
 apo=$out/bin/apo
 accuracy=$out/bin/apo_accuracy
 meshes=datasets/cgal/meshes

@@ -28,7 +28,7 @@ mkdir -p "$in" "$out/bin"
 : >"$out/warnings.txt"
 : >"$out/busy.txt"
 # Copies of the programs: the whole run uses one build even if build/ changes.
-cp build/apo build/apo-engine build/open3d_baseline build/make_detail_mesh "$out/bin/"
+cp build/apo build/apo-engine build/apo-pcl.so build/open3d_baseline build/make_detail_mesh "$out/bin/"
 apo=$out/bin/apo
 baseline=$out/bin/open3d_baseline
 tool=$out/bin/make_detail_mesh

@@ -13,7 +13,7 @@ cd "$(dirname "$0")/.."
 out=${1:-out/bench/budget}
 mkdir -p "$out/bin"
 : >"$out/log.txt"
-cp build/apo build/apo-engine "$out/bin/"
+cp build/apo build/apo-engine build/apo-pcl.so "$out/bin/"
 apo=$out/bin/apo
 mesh=datasets/cgal/meshes/bunny00.off
 

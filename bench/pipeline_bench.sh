@@ -21,7 +21,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-out/bench/pipeline}
 mkdir -p "$out/bin"
-cp build/apo build/apo-engine "$out/bin/"
+cp build/apo build/apo-engine build/apo-pcl.so "$out/bin/"
 apo=$out/bin/apo
 options=(--scan-timeout 300 ${APO_OPTIONS:-})
 

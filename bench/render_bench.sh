@@ -23,7 +23,7 @@ views=${VIEWS:-3}
 frames=${FRAMES:-9}
 mkdir -p "$in" "$out/bin"
 : >"$out/log.txt"
-cp build/apo build/apo-engine build/make_detail_mesh build/open3d_baseline "$out/bin/"
+cp build/apo build/apo-engine build/apo-pcl.so build/make_detail_mesh build/open3d_baseline "$out/bin/"
 apo=$out/bin/apo
 tool=$out/bin/make_detail_mesh
 baseline=$out/bin/open3d_baseline

@@ -12,7 +12,7 @@ cd "$(dirname "$0")/.."
 out=${1:-out/bench/two_sided}
 mkdir -p "$out/bin"
 : >"$out/log.txt"
-cp build/apo build/apo-engine "$out/bin/"
+cp build/apo build/apo-engine build/apo-pcl.so "$out/bin/"
 apo=$out/bin/apo
 
 run() { "$@" >>"$out/log.txt" 2>&1 || { echo "FAILED: $*" >&2; exit 1; }; }

@@ -4,10 +4,11 @@
 // The engine's bake spends a fifth of its time in page faults with 4 KiB
 // pages; glibc asks the kernel for huge pages only when its tunable
 // `glibc.malloc.hugetlb` says so, and reads it at start-up only
-// (huge_pages.h). The engine loads 26 shared libraries before main (40 ms
-// on the test machine; 82 and 80 ms when PCL's I/O library was linked), so
-// when it restarted itself to set the tunable every command paid that
-// twice. This launcher loads only libc and libstdc++.
+// (huge_pages.h). The engine loads 20 shared libraries before main (23 ms
+// on the test machine; 60 ms when it linked PCL's six, now in a module
+// loaded when needed, and 82 ms when PCL's I/O library was linked), so when
+// it restarted itself to set the tunable every command paid that twice.
+// This launcher loads only libc and libstdc++.
 //
 // The engine is looked for beside the launcher (the build tree) and in
 // ../lib/apo (installed: /usr/bin/apo, /usr/lib/apo/apo-engine). A tunable

@@ -2,7 +2,8 @@
 # `apo slurm` on a real one-node Slurm cluster, run by the installed package
 # (docs/cluster.md, "The test"):
 # 1. packages the build (cpack: apo_VERSION_ARCH.deb), installs it with
-#    apt-get, checks `apo --version` and a small `apo run` from /usr/bin/apo;
+#    apt-get, checks `apo --version`, a small `apo run` and an ingest that
+#    loads PCL's module (apo-pcl.so), from /usr/bin/apo;
 # 2. starts munged, slurmctld and slurmd in a temporary folder (a one-node
 #    cluster, proctrack/linuxproc, no cgroups, ports chosen free);
 # 3. a folder of 4 small scans, one of them broken: `apo batch` on one
@@ -37,7 +38,7 @@ cleanup() {
   done
   if [ "$installed" = yes ]; then
     DEBIAN_FRONTEND=noninteractive apt-get remove -y -q apo >"$work/remove.log" 2>&1 || cat "$work/remove.log" >&2
-    for file in /usr/bin/apo /usr/lib/apo/apo-engine; do
+    for file in /usr/bin/apo /usr/lib/apo/apo-engine /usr/lib/apo/apo-pcl.so; do
       if [ -e $file ]; then echo "slurm_check: FAILED: $file left after apt-get remove" >&2; status=1; fi
     done
   fi
@@ -72,6 +73,12 @@ version=$($apo --version)
 quick=(--faces 300 --size 64 --views 2 --frames 1 --map-size 128)
 $apo -q run "$source_dir/tests/golden/input.ply" -o "$work/installed_run" "${quick[@]}" || fail "apo run from the package"
 [ -f "$work/installed_run/report.html" ] || fail "the package's apo run wrote no report"
+# PCL's module (loaded from beside the engine, adapters/pcl/pcl_module.h):
+# outlier removal and the normals' neighbour search on a simulated scan.
+$apo -q simulate-scan "$source_dir/tests/golden/input.ply" -o "$work/points.ply" --views 2 --rays 60 ||
+  fail "apo simulate-scan from the package"
+$apo -q ingest "$work/points.ply" -o "$work/installed_ingest" --remove-outliers ||
+  fail "apo ingest --remove-outliers from the package (PCL's module /usr/lib/apo/apo-pcl.so)"
 say "installed: /usr/bin/apo $version runs"
 
 # ---- 2. A one-node cluster ----------------------------------------------------
