@@ -1717,8 +1717,7 @@ class GlobalRefinement {
         budgetReached = true;
         break;
       }
-      split(candidate);
-      freeSlots_.push_back(slot);  // after the split: its children must not take the slot
+      split(slot);
     }
     if (batched < evaluating.size()) evaluateFrom(evaluating.size());
     evaluations.wait();
@@ -1733,13 +1732,17 @@ class GlobalRefinement {
     return budgetReached;
   }
 
-  // The candidate's children moved out into the tree and the queue.
-  void split(Candidate& candidate) {
+  // The candidate in `slot` split: its children into the tree and the
+  // queue, the first of them into its slot, still in cache.
+  void split(std::uint32_t slot) {
+    Candidate& candidate = slots_[slot];
     outcome_.texels += candidate.texels();
     OctreeNode& parent = nodes_[candidate.leaf.node];
     parent.firstChild = static_cast<std::uint32_t>(nodes_.size());
     parent.childMask = candidate.mask;
-    for (Leaf& child : candidate.children) {
+    auto children = std::move(candidate.children);
+    freeSlots_.push_back(slot);
+    for (Leaf& child : children) {
       child.node = static_cast<std::uint32_t>(nodes_.size());
       OctreeNode node;
       node.depth = static_cast<std::uint8_t>(child.cell.depth);
