@@ -697,7 +697,14 @@ std::vector<std::pair<GridKey, std::uint32_t>> binIntoGrid(std::size_t count, in
 template <class BoundsOf, class Overlaps>
 std::vector<IdList> binIntoCells(const std::vector<GridKey>& cells, std::size_t count, int depth, BoundsOf boundsOf,
                                  Overlaps overlaps) {
+  // Each cell's index looked up in a table of the whole grid when it is
+  // small (8 MiB at most), by a binary search otherwise.
+  constexpr int kDeepestTable = 7;
+  std::vector<std::int32_t> indexOf(depth <= kDeepestTable ? std::size_t{1} << (3 * depth) : 0, -1);
+  for (std::size_t i = 0; i < cells.size() && !indexOf.empty(); ++i) indexOf[cells[i]] = static_cast<std::int32_t>(i);
   const auto perChunk = overlapsByChunk(count, depth, boundsOf, overlaps, [&](GridKey key) {
+    if (!indexOf.empty())
+      return indexOf[key] >= 0 ? std::optional<std::uint64_t>(indexOf[key]) : std::nullopt;
     const auto found = std::lower_bound(cells.begin(), cells.end(), key);
     return found != cells.end() && *found == key ? std::optional<std::uint64_t>(found - cells.begin()) : std::nullopt;
   });

@@ -532,6 +532,24 @@ TEST(BuildOctreeWithABudget, MInACellFaceIsCountedOnce) {
   }
 }
 
+// M's triangles are binned into the occupied coarse cells through a table
+// of the grid up to coarse depth 7 and by a binary search deeper: either
+// way every piece of M under m is counted, once. M and m lie in the plane
+// z = 0.3 (in no cell's face), m over M's square exactly.
+TEST(BuildOctreeWithABudget, MIsBinnedWholeAtEveryCoarseDepth) {
+  const DetailPrimitives detail = flatGrid(32, 1.0f / 128.0f, 0.3f);
+  CoarseMesh coarse;
+  coarse.positions = {Vec3f(0.25f, 0.25f, 0.3f), Vec3f(0.5f, 0.25f, 0.3f), Vec3f(0.5f, 0.5f, 0.3f),
+                      Vec3f(0.25f, 0.5f, 0.3f)};
+  coarse.triangles = {{0, 1, 2}, {0, 2, 3}};
+  for (const int coarseDepth : {2, 7, 8}) {
+    BuildSettings settings{coarseDepth, 9, 0.0, 1u << 20, 2};
+    settings.sumDepth = 0;
+    const BuiltOctree built = buildOctree(coarse, detail, settings);
+    EXPECT_NEAR(built.refinement.area, 1.0 / 16.0, 1e-6) << "coarse depth " << coarseDepth;
+  }
+}
+
 TEST(BuildOctree, SameTreeWithOneOrTwoThreads) {
   const SphereCase c = bumpySphereCase();
   const auto build = [&](int threads) {
