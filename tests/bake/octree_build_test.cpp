@@ -517,16 +517,26 @@ TEST(SumDepthFor, AFewLargeTrianglesAmongSmallOnesRaiseIt) {
 // two cells, and is counted in one (the cell above), level by level and
 // summed from fine cells alike; the leaves' area is M's, 1/16 (counted in
 // both cells, it was twice that).
-TEST(BuildOctreeWithABudget, MInACellFaceIsCountedOnce) {
-  const DetailPrimitives detail = flatGrid(32, 1.0f / 128.0f, 0.5f);
+// M a flat grid over [1/4, 1/2]^2 at height z, m the square over it
+// exactly: M's area is 1/16.
+struct FlatSquare {
+  DetailPrimitives detail;
   CoarseMesh coarse;
-  coarse.positions = {Vec3f(0.25f, 0.25f, 0.5f), Vec3f(0.5f, 0.25f, 0.5f), Vec3f(0.5f, 0.5f, 0.5f),
-                      Vec3f(0.25f, 0.5f, 0.5f)};
-  coarse.triangles = {{0, 1, 2}, {0, 2, 3}};
+};
+
+FlatSquare flatSquare(float z) {
+  FlatSquare square{flatGrid(32, 1.0f / 128.0f, z), {}};
+  square.coarse.positions = {Vec3f(0.25f, 0.25f, z), Vec3f(0.5f, 0.25f, z), Vec3f(0.5f, 0.5f, z), Vec3f(0.25f, 0.5f, z)};
+  square.coarse.triangles = {{0, 1, 2}, {0, 2, 3}};
+  return square;
+}
+
+TEST(BuildOctreeWithABudget, MInACellFaceIsCountedOnce) {
+  const FlatSquare square = flatSquare(0.5f);
   for (const int sumDepth : {0, 6}) {
     BuildSettings settings = budgetSettings(4000);
     settings.sumDepth = sumDepth;
-    const BuiltOctree built = buildOctree(coarse, detail, settings);
+    const BuiltOctree built = buildOctree(square.coarse, square.detail, settings);
     EXPECT_EQ(built.refinement.sumDepth, sumDepth);
     EXPECT_NEAR(built.refinement.area, 1.0 / 16.0, 1e-6) << "sum depth " << sumDepth;
   }
@@ -534,18 +544,14 @@ TEST(BuildOctreeWithABudget, MInACellFaceIsCountedOnce) {
 
 // M's triangles are binned into the occupied coarse cells through a table
 // of the grid up to coarse depth 7 and by a binary search deeper: either
-// way every piece of M under m is counted, once. M and m lie in the plane
-// z = 0.3 (in no cell's face), m over M's square exactly.
+// way every piece of M under m is counted, once (M and m at z = 0.3, in no
+// cell's face).
 TEST(BuildOctreeWithABudget, MIsBinnedWholeAtEveryCoarseDepth) {
-  const DetailPrimitives detail = flatGrid(32, 1.0f / 128.0f, 0.3f);
-  CoarseMesh coarse;
-  coarse.positions = {Vec3f(0.25f, 0.25f, 0.3f), Vec3f(0.5f, 0.25f, 0.3f), Vec3f(0.5f, 0.5f, 0.3f),
-                      Vec3f(0.25f, 0.5f, 0.3f)};
-  coarse.triangles = {{0, 1, 2}, {0, 2, 3}};
+  const FlatSquare square = flatSquare(0.3f);
   for (const int coarseDepth : {2, 7, 8}) {
     BuildSettings settings{coarseDepth, 9, 0.0, 1u << 20, 2};
     settings.sumDepth = 0;
-    const BuiltOctree built = buildOctree(coarse, detail, settings);
+    const BuiltOctree built = buildOctree(square.coarse, square.detail, settings);
     EXPECT_NEAR(built.refinement.area, 1.0 / 16.0, 1e-6) << "coarse depth " << coarseDepth;
   }
 }
