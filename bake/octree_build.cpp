@@ -1728,7 +1728,10 @@ class GlobalRefinement {
     }
     if (batched < evaluating.size()) evaluateFrom(evaluating.size());
     evaluations.wait();
-    for (const std::uint32_t slot : toEvaluate) {
+    for (std::size_t i = 0; i < toEvaluate.size(); ++i) {
+      // Written by the evaluating threads: fetched ahead into this one's cache.
+      if (i + kPrefetchAhead < toEvaluate.size()) prefetchCandidate(*evaluating[i + kPrefetchAhead]);
+      const std::uint32_t slot = toEvaluate[i];
       if (Refinement::worthSplitting(slots_[slot])) {
         queueSlot(slot, true);
       } else {
