@@ -1752,6 +1752,10 @@ class GlobalRefinement {
     parent.childMask = candidate.mask;
     auto children = std::move(candidate.children);
     freeSlots_.push_back(slot);
+    // The slots the other children will take (last freed, first taken),
+    // fetched ahead.
+    for (std::size_t k = 1; k < children.size() && k < freeSlots_.size(); ++k)
+      prefetchCandidate(slots_[freeSlots_[freeSlots_.size() - 1 - k]]);
     for (Leaf& child : children) {
       child.node = static_cast<std::uint32_t>(nodes_.size());
       OctreeNode node;
