@@ -1770,9 +1770,7 @@ class GlobalRefinement {
       finished_.add(std::move(leaf), outcome_);
       return;
     }
-    Candidate candidate;
-    candidate.leaf = std::move(leaf);
-    queueSlot(put(std::move(candidate)), false);
+    queueSlot(put(std::move(leaf)), false);
   }
 
   void queueSlot(std::uint32_t slot, bool evaluated) {
@@ -1792,16 +1790,22 @@ class GlobalRefinement {
   }
 
   // Candidates live in reused slots: the queue holds only their keys.
-  std::uint32_t put(Candidate candidate) {
+  std::uint32_t put(Leaf leaf) {
     if (freeSlots_.empty()) {
-      slots_.push_back(std::move(candidate));
+      slots_.emplace_back().leaf = std::move(leaf);
       return static_cast<std::uint32_t>(slots_.size() - 1);
     }
     const std::uint32_t slot = freeSlots_.back();
     freeSlots_.pop_back();
-    slots_[slot] = std::move(candidate);
+    // Written in place: the slot holds what its last candidate left.
+    Candidate& candidate = slots_[slot];
+    candidate.leaf = std::move(leaf);
+    candidate.mask = 0;
+    decltype(Candidate::children)().swap(candidate.children);
+    candidate.gain = candidate.largestChildError = 0.0;
     return slot;
   }
+
 
   const DetailPrimitives& detail_;
   const BuildSettings& settings_;
