@@ -16,7 +16,6 @@
 #include <algorithm>
 #include <array>
 #include <bit>
-#include <deque>
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -1605,6 +1604,26 @@ class FinishedLeaves {
   std::vector<Leaf*> inPlace_;
 };
 
+// The candidates' slots, in blocks of 4,096: growing the store moves no
+// candidate (the leaves left queued are read through their addresses at the
+// end), and finding a slot reads a table of a few hundred blocks, where
+// std::deque's blocks of 512 bytes held two candidates each, and its table
+// of blocks missed the cache on its own.
+class CandidateSlots {
+ public:
+  std::size_t size() const { return size_; }
+  Candidate& operator[](std::size_t i) { return blocks_[i >> kShift][i & kMask]; }
+  Candidate& emplace_back() {
+    if ((size_ & kMask) == 0) blocks_.push_back(std::make_unique<Candidate[]>(kBlock));
+    return (*this)[size_++];
+  }
+
+ private:
+  static constexpr std::size_t kShift = 12, kBlock = std::size_t{1} << kShift, kMask = kBlock - 1;
+  std::vector<std::unique_ptr<Candidate[]>> blocks_;
+  std::size_t size_ = 0;
+};
+
 // The global refinement (docs/bake.md, "Refinement"). Leaves that may split
 // are queued unevaluated (by an upper bound of their split's value per
 // texel) or evaluated (by the value itself). A leaf reaching the top
@@ -1815,7 +1834,7 @@ class GlobalRefinement {
   std::vector<OctreeNode>& nodes_;
   RefinementOutcome& outcome_;
   FinishedLeaves finished_;
-  std::deque<Candidate> slots_;  // a deque: growing it moves no candidate
+  CandidateSlots slots_;
   std::vector<std::uint32_t> freeSlots_;
   SplitQueue queue_;
   // A round's leaves to evaluate: their slots and addresses; kept from round
