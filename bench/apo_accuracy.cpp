@@ -80,7 +80,7 @@ int run(int argc, char** argv) {
                !detail ? detail.error().message : !coarse ? coarse.error().message : texture.error().message);
     return 2;
   }
-  if (detail->points.normals.size() != detail->points.size()) detail->points.normals = apo::areaWeightedVertexNormals(*detail);
+  apo::addVertexNormalsIfMissing(*detail);
   const std::vector<Vec3f> coarseNormals = apo::vertexNormalsAsDrawn(*coarse);
   auto closest = apo::makeFlannClosestPoint(*detail);
   if (!closest) return 2;

@@ -28,6 +28,11 @@ std::vector<Vec3f> areaWeightedVertexNormals(const Scan& mesh) {
   return normals;
 }
 
+void addVertexNormalsIfMissing(Scan& mesh) {
+  if (mesh.isMesh() && mesh.points.normals.size() != mesh.points.size())
+    mesh.points.normals = areaWeightedVertexNormals(mesh);
+}
+
 std::vector<Vec3f> vertexNormalsAsDrawn(const Scan& mesh) {
   return mesh.points.normals.size() == mesh.points.size() ? mesh.points.normals : areaWeightedVertexNormals(mesh);
 }

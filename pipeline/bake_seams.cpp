@@ -167,8 +167,7 @@ Result<Bake> bakeApo(const Scan& detail, const Scan& coarse, const BakeOptions& 
 Result<std::unique_ptr<ClosestPointFinder>> meshClosestPoint(const Scan& mesh) {
   if (!mesh.isMesh()) return badInput("a closest point with its normal needs a triangle mesh, not points");
   Scan withNormals = mesh;
-  if (withNormals.points.normals.size() != withNormals.points.size())
-    withNormals.points.normals = areaWeightedVertexNormals(withNormals);
+  addVertexNormalsIfMissing(withNormals);
   return makeEmbreeClosestPoint(withNormals);
 }
 

@@ -150,7 +150,7 @@ class Run {
   // The scan's points as detail: a mesh's vertices with their normals.
   const Scan& pointsOfScan() {
     if (data_.scan.isMesh()) {
-      if (!data_.scan.points.hasNormals()) data_.scan.points.normals = areaWeightedVertexNormals(data_.scan);
+      addVertexNormalsIfMissing(data_.scan);
       data_.scan.triangles.clear();
     }
     return data_.scan;

@@ -346,7 +346,7 @@ Result<Reconstruction> reconstructScan(const Scan& scan, const ReconstructOption
   APO_RETURN_IF_ERROR(validateReconstructOptions(options));
   Reconstruction adopted;
   adopted.mesh = scan;
-  if (!adopted.mesh.points.hasNormals()) adopted.mesh.points.normals = areaWeightedVertexNormals(adopted.mesh);
+  addVertexNormalsIfMissing(adopted.mesh);
   adopted.report.method = "input-mesh";
   adopted.report.pointsIn = adopted.report.pointsUsed = scan.points.size();
   adopted.report.quality = measureMesh(adopted.mesh);
