@@ -30,28 +30,34 @@ GIB = 1 << 30
 PAGE = 4096
 
 
-def touch_seconds(huge: bool) -> float:
-    """Seconds to write one byte in every 4 KiB page of a fresh GiB."""
+def fresh_gib(huge: bool) -> mmap.mmap:
     region = mmap.mmap(-1, GIB, flags=mmap.MAP_PRIVATE | mmap.MAP_ANONYMOUS)
     if huge:
         region.madvise(mmap.MADV_HUGEPAGE)
+    return region
+
+
+def seconds_to_write(region: mmap.mmap, value: int) -> float:
+    """Seconds to write `value` in one byte of every 4 KiB page."""
     start = time.perf_counter()
     for offset in range(0, GIB, PAGE):
-        region[offset] = 1
-    seconds = time.perf_counter() - start
+        region[offset] = value
+    return time.perf_counter() - start
+
+
+def touch_seconds(huge: bool) -> float:
+    """The first write to every page of a fresh GiB."""
+    region = fresh_gib(huge)
+    seconds = seconds_to_write(region, 1)
     region.close()
     return seconds
 
 
 def loop_overhead() -> float:
     """The Python loop alone, over memory already touched (subtracted)."""
-    region = mmap.mmap(-1, GIB, flags=mmap.MAP_PRIVATE | mmap.MAP_ANONYMOUS)
-    for offset in range(0, GIB, PAGE):
-        region[offset] = 1
-    start = time.perf_counter()
-    for offset in range(0, GIB, PAGE):
-        region[offset] = 2
-    seconds = time.perf_counter() - start
+    region = fresh_gib(False)
+    seconds_to_write(region, 1)
+    seconds = seconds_to_write(region, 2)
     region.close()
     return seconds
 
