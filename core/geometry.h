@@ -93,9 +93,9 @@ Aabb boundingBox(const std::vector<Vec3f>& positions);
 // normals; vertices in no triangle (or only degenerate ones) get +z.
 std::vector<Vec3f> areaWeightedVertexNormals(const Scan& mesh);
 
-// Gives a mesh area-weighted vertex normals unless it has one per vertex;
-// points are left as they are (their normals come from `apo ingest`). In
-// place: a copy of a 1.2M-triangle M cost the bake 0.03 s for nothing.
+// Gives a mesh area-weighted vertex normals, in place, unless it has one
+// per vertex; points are left as they are (their normals come from
+// `apo ingest`).
 void addVertexNormalsIfMissing(Scan& mesh);
 
 // A mesh's vertex normals as the renderer, the bake and the export take them:

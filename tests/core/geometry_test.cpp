@@ -40,6 +40,28 @@ TEST(AreaWeightedVertexNormals, OctahedronVerticesPointOutwards) {
   EXPECT_NEAR(surfaceArea(octahedron), 8 * std::sqrt(3.0) / 4 * 2, 1e-6);
 }
 
+TEST(AddVertexNormalsIfMissing, MeshWithoutOnePerVertexGetsAreaWeightedNormalsOthersKeepTheirs) {
+  Scan octahedron;
+  octahedron.points.positions = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+  octahedron.triangles = {{0, 2, 4}, {2, 1, 4}, {1, 3, 4}, {3, 0, 4}, {2, 0, 5}, {1, 2, 5}, {3, 1, 5}, {0, 3, 5}};
+  for (const std::size_t given : {std::size_t{0}, std::size_t{2}}) {  // none, or too few
+    Scan mesh = octahedron;
+    mesh.points.normals.assign(given, Vec3f::UnitX());
+    addVertexNormalsIfMissing(mesh);
+    ASSERT_EQ(mesh.points.normals.size(), 6u) << given;
+    for (std::size_t i = 0; i < 6; ++i)  // a regular octahedron's vertex normals point along its vertices
+      EXPECT_NEAR((mesh.points.normals[i] - mesh.points.positions[i]).norm(), 0.0f, 1e-6f) << given << " " << i;
+  }
+  Scan own = octahedron;
+  own.points.normals.assign(6, Vec3f::UnitX());
+  addVertexNormalsIfMissing(own);
+  EXPECT_EQ(own.points.normals, std::vector<Vec3f>(6, Vec3f::UnitX())) << "a mesh's own normals are kept";
+  Scan points = octahedron;
+  points.triangles.clear();
+  addVertexNormalsIfMissing(points);
+  EXPECT_TRUE(points.points.normals.empty()) << "points get no normals from faces they do not have";
+}
+
 // Two triangles sharing a vertex (one piece), a separate triangle (another),
 // and a vertex in no triangle.
 TEST(MeshPieces, TrianglesSharingAVertexAreOnePiece) {
