@@ -111,8 +111,10 @@ Result<DetailSearch> detailSearch(const Scan& M, DetailSurface& surface) {
     auto closest = makeFlannClosestPointOnDemand(M);
     if (!closest) return closest.error();
     search.closest = std::move(closest).value();
+    // About one ray per triangle of M: the BVH's build costs more than the
+    // rays lose to a quicker one's lower quality.
     search.caster->start(fmt::format("Embree BVH over {} triangles", M.triangles.size()),
-                         [&M] { return makeEmbreeMeshCaster(M); });
+                         [&M] { return makeQuickBuiltEmbreeMeshCaster(M); });
     return search;
   }
   auto points = std::make_unique<PointsSearchAside>(M.points);

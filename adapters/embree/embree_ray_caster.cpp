@@ -33,19 +33,22 @@ class EmbreeCaster final : public RayCaster {
     if (device_) rtcReleaseDevice(device_);
   }
 
-  Status build(RTCGeometryType type, const FillGeometry& fill) {
+  Status build(RTCGeometryType type, const FillGeometry& fill, bool quickBuild = false) {
     device_ = rtcNewDevice(nullptr);
     if (!device_) return internalError("Embree: cannot create a device (error {})", static_cast<int>(rtcGetDeviceError(nullptr)));
     rtcSetDeviceErrorFunction(device_, recordEmbreeError, &lastError_);
     scene_ = rtcNewScene(device_);
     // Medium (binned SAH) builds 1M triangles several times faster than high
-    // (spatial splits) and traces our short rays about as fast.
-    rtcSetSceneBuildQuality(scene_, RTC_BUILD_QUALITY_MEDIUM);
+    // (spatial splits) and traces our short rays about as fast. Low (a
+    // Morton-code build) is faster still: the geometry's quality counts only
+    // in a scene built at low quality, so both are set (docs/benchmarks.md).
+    rtcSetSceneBuildQuality(scene_, quickBuild ? RTC_BUILD_QUALITY_LOW : RTC_BUILD_QUALITY_MEDIUM);
     // Watertight triangle tests: rays from m's edges and vertices meet M's
     // shared edges there (the paper's closest-point origins often lie on them).
     rtcSetSceneFlags(scene_, RTC_SCENE_FLAG_ROBUST);
     RTCGeometry geometry = rtcNewGeometry(device_, type);
     if (!geometry) return internalError("Embree: cannot create a geometry: {}", lastError_);
+    if (quickBuild) rtcSetGeometryBuildQuality(geometry, RTC_BUILD_QUALITY_LOW);
     if (!fill(geometry)) {
       rtcReleaseGeometry(geometry);
       return internalError("Embree: cannot allocate buffers: {}", lastError_);
@@ -219,16 +222,20 @@ class EmbreeClosestPoint final : public ClosestPointFinder {
   EmbreeCaster scene_;
 };
 
-}  // namespace
-
-Result<std::unique_ptr<RayCaster>> makeEmbreeMeshCaster(const Scan& mesh) {
+Result<std::unique_ptr<RayCaster>> meshCaster(const Scan& mesh, bool quickBuild) {
   if (!mesh.isMesh()) return badInput("ray casting needs a triangle mesh, got {} points and no triangles", mesh.points.size());
   return catchLibraryErrors("Embree triangle BVH", [&]() -> Result<std::unique_ptr<RayCaster>> {
     auto caster = std::make_unique<EmbreeCaster>();
-    APO_RETURN_IF_ERROR(caster->build(RTC_GEOMETRY_TYPE_TRIANGLE, [&](RTCGeometry g) { return fillTriangles(g, mesh); }));
+    APO_RETURN_IF_ERROR(caster->build(RTC_GEOMETRY_TYPE_TRIANGLE, [&](RTCGeometry g) { return fillTriangles(g, mesh); }, quickBuild));
     return std::unique_ptr<RayCaster>(std::move(caster));
   });
 }
+
+}  // namespace
+
+Result<std::unique_ptr<RayCaster>> makeEmbreeMeshCaster(const Scan& mesh) { return meshCaster(mesh, false); }
+
+Result<std::unique_ptr<RayCaster>> makeQuickBuiltEmbreeMeshCaster(const Scan& mesh) { return meshCaster(mesh, true); }
 
 Result<std::unique_ptr<ClosestPointFinder>> makeEmbreeClosestPoint(const Scan& mesh) {
   if (!mesh.isMesh()) return badInput("the closest point of a mesh needs triangles, got {} points and none", mesh.points.size());

@@ -43,9 +43,11 @@ TEST(EmbreeMeshCaster, HitsOneTriangleWithKnownDistanceAndBarycentrics) {
   EXPECT_FALSE(hits[1].hit());
 }
 
-TEST(EmbreeMeshCaster, AgreesWithBruteForceOnAnIcosphere) {
+using MeshCasterFactory = Result<std::unique_ptr<RayCaster>> (*)(const Scan&);
+
+void expectBruteForceHitsOnAnIcosphere(MeshCasterFactory makeCaster) {
   const Scan sphere = test::makeIcosphere(2);
-  auto caster = makeEmbreeMeshCaster(sphere);
+  auto caster = makeCaster(sphere);
   ASSERT_TRUE(caster.ok());
   std::mt19937 random(3);
   std::uniform_real_distribution<float> uniform(-1.5f, 1.5f);
@@ -70,10 +72,44 @@ TEST(EmbreeMeshCaster, AgreesWithBruteForceOnAnIcosphere) {
   EXPECT_GT(hitCount, 500);  // the comparison covered real hits
 }
 
+// Rays from outside aimed at the middle of every edge and at every vertex:
+// each meets the closed sphere there, where a non-watertight test may let
+// some slip between the triangles.
+void expectEdgesAndVerticesHit(MeshCasterFactory makeCaster) {
+  const Scan sphere = test::makeIcosphere(2);
+  auto caster = makeCaster(sphere);
+  ASSERT_TRUE(caster.ok());
+  const auto& p = sphere.points.positions;
+  std::vector<Vec3f> targets(p.begin(), p.end());
+  for (const Triangle& t : sphere.triangles)
+    for (int c = 0; c < 3; ++c) targets.push_back(0.5f * (p[t[c]] + p[t[(c + 1) % 3]]));
+  std::vector<Ray> rays;
+  for (const Vec3f& target : targets) rays.push_back({2.0f * target.normalized(), -target.normalized()});
+  std::vector<RayHit> hits;
+  (*caster)->intersect(rays, hits);
+  for (std::size_t i = 0; i < rays.size(); ++i) {
+    ASSERT_TRUE(hits[i].hit()) << "ray " << i;
+    EXPECT_NEAR(hits[i].t, 2.0f - targets[i].norm(), 1e-5f) << "ray " << i;
+  }
+}
+
+TEST(EmbreeMeshCaster, AgreesWithBruteForceOnAnIcosphere) { expectBruteForceHitsOnAnIcosphere(makeEmbreeMeshCaster); }
+
+TEST(EmbreeMeshCaster, QuickBuiltAgreesWithBruteForceOnAnIcosphere) {
+  expectBruteForceHitsOnAnIcosphere(makeQuickBuiltEmbreeMeshCaster);
+}
+
+TEST(EmbreeMeshCaster, NoRaySlipsThroughAnEdgeOrAVertex) { expectEdgesAndVerticesHit(makeEmbreeMeshCaster); }
+
+TEST(EmbreeMeshCaster, NoRaySlipsThroughAnEdgeOrAVertexWhenQuickBuilt) {
+  expectEdgesAndVerticesHit(makeQuickBuiltEmbreeMeshCaster);
+}
+
 TEST(EmbreeMeshCaster, RefusesAPointCloud) {
   Scan cloud;
   cloud.points.positions = {{0, 0, 0}};
   EXPECT_FALSE(makeEmbreeMeshCaster(cloud).ok());
+  EXPECT_FALSE(makeQuickBuiltEmbreeMeshCaster(cloud).ok());
 }
 
 // ---- Oriented discs ----------------------------------------------------------
