@@ -48,19 +48,27 @@ std::size_t mergeDuplicatePoints(Scan& scan) {
 
 std::size_t dropDuplicateTriangles(Scan& scan) {
   auto& triangles = scan.triangles;
-  auto sortedKey = [](Triangle t) {
-    std::sort(t.begin(), t.end());
-    return t;
+  // Each triangle's corners sorted, then its index, in one record: the sort
+  // reads contiguous records, where sorting indices through a comparator
+  // fetched and sorted two random triangles per comparison (0.87 s for 1.2M
+  // triangles; docs/benchmarks.md).
+  struct Keyed {
+    Triangle corners;
+    std::uint32_t index;
+    bool operator<(const Keyed& other) const {
+      return corners != other.corners ? corners < other.corners : index < other.index;
+    }
   };
-  std::vector<std::uint32_t> order(triangles.size());
-  std::iota(order.begin(), order.end(), 0u);
-  std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
-    const Triangle ka = sortedKey(triangles[a]), kb = sortedKey(triangles[b]);
-    return ka != kb ? ka < kb : a < b;
-  });
+  std::vector<Keyed> keyed(triangles.size());
+  for (std::size_t i = 0; i < triangles.size(); ++i) {
+    keyed[i] = {triangles[i], static_cast<std::uint32_t>(i)};
+    std::sort(keyed[i].corners.begin(), keyed[i].corners.end());
+  }
+  std::sort(keyed.begin(), keyed.end());
+  // The first of each set of equal triangles, in the input's order, is kept.
   std::vector<char> keep(triangles.size(), 1);
-  for (std::size_t i = 1; i < order.size(); ++i)
-    if (sortedKey(triangles[order[i]]) == sortedKey(triangles[order[i - 1]])) keep[order[i]] = 0;
+  for (std::size_t i = 1; i < keyed.size(); ++i)
+    if (keyed[i].corners == keyed[i - 1].corners) keep[keyed[i].index] = 0;
   const std::size_t before = triangles.size();
   std::size_t out = 0;
   for (std::size_t i = 0; i < triangles.size(); ++i)

@@ -6,7 +6,10 @@
 
 #include <cmath>
 #include <limits>
+#include <algorithm>
 #include <map>
+#include <random>
+#include <set>
 
 namespace apo::cleaning {
 namespace {
@@ -62,6 +65,26 @@ TEST(DropDuplicateTriangles, SameVerticesInAnyOrder) {
   mesh.triangles.push_back({0, 3, 2});  // opposite winding of {0,2,3}
   EXPECT_EQ(dropDuplicateTriangles(mesh), 2u);
   EXPECT_EQ(mesh.triangles, (std::vector<Triangle>{{0, 1, 2}, {0, 2, 3}}));
+}
+
+TEST(DropDuplicateTriangles, KeepsTheFirstOfEachSetLikeBruteForce) {
+  // Corners drawn from 6 vertices: many triangles repeat, in any order of
+  // their corners, some degenerate.
+  Scan mesh;
+  mesh.points.positions.resize(6, Vec3f::Zero());
+  std::mt19937 random(5);
+  std::uniform_int_distribution<std::uint32_t> vertex(0, 5);
+  for (int i = 0; i < 2000; ++i) mesh.triangles.push_back({vertex(random), vertex(random), vertex(random)});
+  std::set<Triangle> seen;
+  std::vector<Triangle> expected;
+  for (const Triangle& t : mesh.triangles) {
+    Triangle key = t;
+    std::sort(key.begin(), key.end());
+    if (seen.insert(key).second) expected.push_back(t);
+  }
+  EXPECT_EQ(dropDuplicateTriangles(mesh), 2000u - expected.size());
+  EXPECT_EQ(mesh.triangles, expected);
+  EXPECT_LT(expected.size(), 100u);  // the input did repeat
 }
 
 TEST(NormaliseNormals, CountsZeroAndNanNormals) {
