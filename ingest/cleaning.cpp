@@ -50,8 +50,8 @@ std::size_t dropDuplicateTriangles(Scan& scan) {
   auto& triangles = scan.triangles;
   // Each triangle's corners sorted, then its index, in one record: the sort
   // reads contiguous records, where sorting indices through a comparator
-  // fetched and sorted two random triangles per comparison (0.87 s for 1.2M
-  // triangles; docs/benchmarks.md).
+  // fetched and sorted two random triangles per comparison (0.9 s for 1.2M
+  // triangles, now 0.15-0.19; docs/benchmarks.md).
   struct Keyed {
     Triangle corners;
     std::uint32_t index;

@@ -20,7 +20,7 @@ namespace apo {
 Result<std::unique_ptr<RayCaster>> makeEmbreeMeshCaster(const Scan& mesh);
 
 // The same nearest hits from a BVH built by Morton codes: a third to a
-// quarter of the CPU to build on a large mesh, its rays about as fast
+// fifth of the CPU to build on a large mesh, its rays 10-25% slower
 // (docs/benchmarks.md). For a large mesh few rays meet per triangle, as M
 // in the bake.
 Result<std::unique_ptr<RayCaster>> makeQuickBuiltEmbreeMeshCaster(const Scan& mesh);
