@@ -55,9 +55,7 @@ std::size_t dropDuplicateTriangles(Scan& scan) {
   struct Keyed {
     Triangle corners;
     std::uint32_t index;
-    bool operator<(const Keyed& other) const {
-      return corners != other.corners ? corners < other.corners : index < other.index;
-    }
+    auto operator<=>(const Keyed&) const = default;  // corners, then index
   };
   std::vector<Keyed> keyed(triangles.size());
   for (std::size_t i = 0; i < triangles.size(); ++i) {
