@@ -87,6 +87,10 @@ struct N3TreeReport {
 struct BakeReport {
   std::string detailKind;  // "mesh" or "points"
   std::uint64_t detailPrimitives = 0, coarseTriangles = 0;
+  // M a mesh: how far apart its consecutive triangles lie (faceOrderSpread),
+  // and whether the bake took them in Morton order (pipeline's bakeApo).
+  double detailFaceOrderSpread = 0.0;
+  bool detailFacesReordered = false;
   std::vector<std::uint64_t> nodesPerDepth;
   std::uint64_t leaves = 0, internalNodes = 0;
   RefinementReport refinement;

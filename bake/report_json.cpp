@@ -8,7 +8,10 @@ namespace apo {
 std::string bakeReportJson(const BakeReport& r) {
   nlohmann::ordered_json json;
   json["format_version"] = 2;
-  json["detail"] = {{"kind", r.detailKind}, {"primitives", r.detailPrimitives}};
+  json["detail"] = {{"kind", r.detailKind},
+                    {"primitives", r.detailPrimitives},
+                    {"face_order_spread", r.detailFaceOrderSpread},
+                    {"faces_reordered", r.detailFacesReordered}};
   json["coarse_triangles"] = r.coarseTriangles;
   json["nodes"] = {{"per_depth", r.nodesPerDepth}, {"leaves", r.leaves}, {"internal", r.internalNodes}};
   const RefinementReport& f = r.refinement;

@@ -45,6 +45,68 @@ double surfaceArea(const Scan& mesh) {
   return area;
 }
 
+namespace {
+
+Vec3f centreOf(const Scan& mesh, const Triangle& t) {
+  const auto& p = mesh.points.positions;
+  return (p[t[0]] + p[t[1]] + p[t[2]]) / 3.0f;
+}
+
+// The bits of x (10 at most) spread to every third bit.
+std::uint32_t spreadTenBits(std::uint32_t x) {
+  x &= 0x3FF;
+  x = (x | x << 16) & 0x030000FF;
+  x = (x | x << 8) & 0x0300F00F;
+  x = (x | x << 4) & 0x030C30C3;
+  x = (x | x << 2) & 0x09249249;
+  return x;
+}
+
+}  // namespace
+
+double faceOrderSpread(const Scan& mesh) {
+  constexpr std::size_t kMostPairs = 4096;
+  const std::size_t pairs = mesh.triangles.size() < 2 ? 0 : std::min(kMostPairs, mesh.triangles.size() - 1);
+  if (pairs == 0) return 0.0;
+  const auto& p = mesh.points.positions;
+  std::vector<double> steps;
+  double edges = 0.0;
+  for (std::size_t k = 0; k < pairs; ++k) {
+    const std::size_t i = k * (mesh.triangles.size() - 1) / pairs;
+    const Triangle& t = mesh.triangles[i];
+    steps.push_back((centreOf(mesh, mesh.triangles[i + 1]) - centreOf(mesh, t)).cast<double>().norm());
+    for (int c = 0; c < 3; ++c) edges += (p[t[(c + 1) % 3]] - p[t[c]]).cast<double>().norm();
+  }
+  const double meanEdge = edges / static_cast<double>(3 * pairs);
+  std::nth_element(steps.begin(), steps.begin() + static_cast<std::ptrdiff_t>(pairs / 2), steps.end());
+  const double median = steps[pairs / 2];
+  return meanEdge > 0.0 && std::isfinite(median) ? median / meanEdge : 0.0;
+}
+
+std::vector<Triangle> trianglesInMortonOrder(const Scan& mesh) {
+  const Aabb box = boundingBox(mesh.points.positions);
+  const Vec3f extent = box.extent();
+  // A centre's cell on one axis of a 1024-cell grid over the box (NaN and
+  // a flat axis go to cell 0).
+  const auto cellOn = [&](const Vec3f& centre, int axis) {
+    const float at = extent[axis] > 0.0f ? (centre[axis] - box.min[axis]) / extent[axis] * 1024.0f : 0.0f;
+    return at > 0.0f ? static_cast<std::uint32_t>(std::min(at, 1023.0f)) : 0u;
+  };
+  // (code, position in the list): sorted, ties keep the list's order.
+  std::vector<std::uint64_t> keyed(mesh.triangles.size());
+  for (std::size_t i = 0; i < keyed.size(); ++i) {
+    const Vec3f centre = centreOf(mesh, mesh.triangles[i]);
+    const std::uint64_t code =
+        spreadTenBits(cellOn(centre, 0)) << 2 | spreadTenBits(cellOn(centre, 1)) << 1 | spreadTenBits(cellOn(centre, 2));
+    keyed[i] = code << 32 | i;
+  }
+  std::sort(keyed.begin(), keyed.end());
+  std::vector<Triangle> sorted;
+  sorted.reserve(keyed.size());
+  for (const std::uint64_t k : keyed) sorted.push_back(mesh.triangles[k & 0xFFFFFFFFu]);
+  return sorted;
+}
+
 MeshPieces meshPieces(const Scan& mesh) {
   std::vector<std::uint32_t> parent(mesh.points.size());
   std::iota(parent.begin(), parent.end(), 0u);

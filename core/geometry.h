@@ -105,6 +105,19 @@ std::vector<Vec3f> vertexNormalsAsDrawn(const Scan& mesh);
 // Total area of a mesh's triangles.
 double surfaceArea(const Scan& mesh);
 
+// How far apart consecutive triangles of the list lie: the median, over up
+// to 4,096 pairs spread along it, of the distance between the centres of
+// triangles i and i + 1, in units of those triangles' mean edge length (0
+// for fewer than two triangles or no edge length). About 1 for a mesh
+// written in scan, subdivision or reconstruction order; hundreds when its
+// triangles are shuffled.
+double faceOrderSpread(const Scan& mesh);
+
+// The mesh's triangles sorted by the Morton code of their centres (10 bits
+// per axis of the bounding box), ties in the list's order: neighbours in
+// the list are then neighbours in space.
+std::vector<Triangle> trianglesInMortonOrder(const Scan& mesh);
+
 // The pieces of a mesh: triangles connected through shared vertices,
 // numbered in the order of their first triangle. Vertices in no triangle
 // belong to no piece (kNoPiece).

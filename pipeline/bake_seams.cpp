@@ -18,6 +18,15 @@
 namespace apo {
 namespace {
 
+// faceOrderSpread beyond which M's triangles are taken in Morton order.
+// Measured: meshes in subdivision or reconstruction order 0.5-0.9 (the 1.2M
+// bunny 0.92, the 7.2M torus 0.50, advancing front's M of
+// table_scene_lms400 0.59), the bundled CGAL meshes 1-46 (armadillo and
+// diplodocus 46, bunny00 14), the 1.2M bunny shuffled 288. Only the last
+// was measured to pay (docs/benchmarks.md): the line is kept well above
+// the files as found.
+constexpr double kShuffledFaceOrder = 100.0;
+
 // A search structure built on a TBB task beside the bake, waited on only by
 // the thread that started it (the bake's): with one thread, the task runs at
 // that wait. `what` names it in the log line giving its time.
@@ -137,14 +146,24 @@ Result<Bake> bakeApo(const Scan& detail, const Scan& coarse, const BakeOptions& 
   APO_RETURN_IF_ERROR(validateBakeOptions(options));
   Stopwatch setup;
   // M as given, or a copy with vertex normals when a mesh has none (a copy
-  // of 2M points costs the bake 0.1 s for nothing otherwise).
-  Scan withNormals;
+  // of 2M points costs the bake 0.1 s for nothing otherwise), or with its
+  // triangles in Morton order when the list follows no order in space
+  // (shuffled by some tool): the error metric reads M's triangles cell by
+  // cell and the rays go out in M's order, and the 1.2M bunny shuffled took
+  // 20% longer (docs/benchmarks.md, "What is left of the bunny's 2 s").
+  const double spread = faceOrderSpread(detail);
   const bool needsNormals = detail.isMesh() && detail.points.normals.size() != detail.points.size();
-  if (needsNormals) {
-    withNormals = detail;
-    withNormals.points.normals = areaWeightedVertexNormals(withNormals);
+  const bool reorder = spread > kShuffledFaceOrder;
+  Scan copy;
+  if (needsNormals || reorder) {
+    copy = detail;
+    if (needsNormals) copy.points.normals = areaWeightedVertexNormals(copy);  // in the file's order, as without
+    if (reorder) {
+      copy.triangles = trianglesInMortonOrder(copy);
+      spdlog::info("bake: M's consecutive triangles lie {:.0f} edges apart (median): baked in Morton order", spread);
+    }
   }
-  const Scan& M = needsNormals ? withNormals : detail;
+  const Scan& M = needsNormals || reorder ? copy : detail;
   if (!M.isMesh() && !M.points.hasNormals())
     return badInput("the detail points have no normals: run `apo ingest` first, which estimates and orients them");
   APO_RETURN_IF_ERROR(validateBakeInputs(M, coarse));
@@ -161,6 +180,8 @@ Result<Bake> bakeApo(const Scan& detail, const Scan& coarse, const BakeOptions& 
 
   auto bake = bakeWith(surface, {&coarse, coarseCaster->get()}, options, onProgress);
   if (!bake) return bake;
+  bake->report.detailFaceOrderSpread = spread;
+  bake->report.detailFacesReordered = reorder;
   bake->report.seconds.setup += setupSeconds;
   bake->report.totalSeconds += setupSeconds;
   return bake;

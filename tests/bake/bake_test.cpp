@@ -339,6 +339,33 @@ TEST(Bake, SameBytesWithOneOrTwoThreads) {
   EXPECT_EQ(bakeWithThreads(1), bakeWithThreads(2));
 }
 
+TEST(Bake, TrianglesInNoOrderAreTakenInMortonOrderForTheSameNormals) {
+  // M's triangles shuffled (as some tools write them): the bake takes them
+  // in Morton order, which is faster (docs/benchmarks.md), says so in its
+  // report, and shows the normals it shows with M in its own order.
+  const test::BumpySphere shape;
+  const Scan coarse = test::makeIcosphere(3);
+  const Scan ordered = shape.mesh(7);  // 327,680 faces, in subdivision order
+  Scan shuffled = ordered;
+  std::shuffle(shuffled.triangles.begin(), shuffled.triangles.end(), std::mt19937(7));
+  auto fromOrdered = bakeApo(ordered, coarse, testOptions());
+  auto fromShuffled = bakeApo(shuffled, coarse, testOptions());
+  ASSERT_TRUE(fromOrdered.ok() && fromShuffled.ok());
+  EXPECT_FALSE(fromOrdered->report.detailFacesReordered);
+  EXPECT_LT(fromOrdered->report.detailFaceOrderSpread, 10.0);
+  EXPECT_TRUE(fromShuffled->report.detailFacesReordered);
+  EXPECT_GT(fromShuffled->report.detailFaceOrderSpread, 100.0);
+  double difference = 0.0;
+  const auto points = pointsOnMesh(coarse, 20000, 9);
+  for (const Vec3f& p : points) {
+    const Lookup a = lookupTexture(fromOrdered->texture, fromOrdered->texture.transform.toUnit(p));
+    const Lookup b = lookupTexture(fromShuffled->texture, fromShuffled->texture.transform.toUnit(p));
+    ASSERT_TRUE(a.found && b.found);
+    difference += degreesBetween(a.normal, b.normal);
+  }
+  EXPECT_LT(difference / static_cast<double>(points.size()), 0.01);
+}
+
 TEST(Bake, PointsFromAScanGiveNormalsCloseToTheMeshBake) {
   // M as a simulated scan of the bumpy sphere (noise, misregistration,
   // normals estimated by ingest) against M as the exact dense mesh.

@@ -1,9 +1,13 @@
 #include "core/geometry.h"
 
+#include "tests/test_support.h"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <random>
 
 namespace apo {
 namespace {
@@ -27,6 +31,62 @@ TEST(Scan, IsAMeshOnlyWithTriangles) {
   EXPECT_FALSE(scan.isMesh());
   scan.triangles.push_back({0, 1, 2});
   EXPECT_TRUE(scan.isMesh());
+}
+
+Vec3f centreOf(const Scan& mesh, const Triangle& t) {
+  const auto& p = mesh.points.positions;
+  return (p[t[0]] + p[t[1]] + p[t[2]]) / 3.0f;
+}
+
+TEST(FaceOrderSpread, NeighboursInTheListAreAboutAnEdgeApartShuffledOnesFarApart) {
+  Scan grid = test::makeSquareGrid(40);  // 3,200 triangles, row by row: every consecutive pair is measured
+  // Brute force: the median over all consecutive pairs, over the mean edge
+  // of the pairs' first triangles (each 1, 1 and sqrt 2 squares' sides of 1/40).
+  const auto bruteForce = [](const Scan& mesh) {
+    std::vector<double> steps;
+    for (std::size_t i = 0; i + 1 < mesh.triangles.size(); ++i)
+      steps.push_back((centreOf(mesh, mesh.triangles[i + 1]) - centreOf(mesh, mesh.triangles[i])).cast<double>().norm());
+    std::sort(steps.begin(), steps.end());
+    return steps[steps.size() / 2] / ((2.0 + std::sqrt(2.0)) / 3.0 / 40.0);
+  };
+  EXPECT_NEAR(faceOrderSpread(grid), bruteForce(grid), 1e-6);
+  EXPECT_LT(faceOrderSpread(grid), 1.0);
+  std::shuffle(grid.triangles.begin(), grid.triangles.end(), std::mt19937(3));
+  EXPECT_NEAR(faceOrderSpread(grid), bruteForce(grid), 1e-6);
+  EXPECT_GT(faceOrderSpread(grid), 10.0) << "a random pair of a 40 x 40 grid lies about 20 squares apart";
+  Scan one = test::makeSquareGrid(1);
+  one.triangles.pop_back();
+  EXPECT_EQ(faceOrderSpread(one), 0.0);
+}
+
+// The Morton code of a point's cell in a 1024-cell grid over the unit
+// square (z = 0), bit by bit (x's bit above y's above z's).
+std::uint64_t mortonByBits(const Vec3f& p) {
+  const auto cell = [&](float x) { return static_cast<std::uint32_t>(std::min(x * 1024.0f, 1023.0f)); };
+  const std::array<std::uint32_t, 3> c = {cell(p.x()), cell(p.y()), 0u};
+  std::uint64_t code = 0;
+  for (int bit = 9; bit >= 0; --bit)
+    for (int axis = 0; axis < 3; ++axis) code = code << 1 | ((c[axis] >> bit) & 1u);
+  return code;
+}
+
+TEST(TrianglesInMortonOrder, APermutationSortedByTheCentresCodesTiesInTheListsOrder) {
+  Scan grid = test::makeSquareGrid(40);
+  std::shuffle(grid.triangles.begin(), grid.triangles.end(), std::mt19937(5));
+  // Two triangles with the same centre, in this order: they must stay so.
+  grid.triangles.push_back({0, 1, 42});
+  grid.triangles.push_back({42, 0, 1});
+  const std::vector<Triangle> sorted = trianglesInMortonOrder(grid);
+  std::vector<Triangle> given = grid.triangles, got = sorted;
+  std::sort(given.begin(), given.end());
+  std::sort(got.begin(), got.end());
+  EXPECT_EQ(got, given) << "every triangle once";
+  for (std::size_t i = 0; i + 1 < sorted.size(); ++i)
+    ASSERT_LE(mortonByBits(centreOf(grid, sorted[i])), mortonByBits(centreOf(grid, sorted[i + 1]))) << i;
+  const auto first = std::find(sorted.begin(), sorted.end(), Triangle{0, 1, 42});
+  const auto second = std::find(sorted.begin(), sorted.end(), Triangle{42, 0, 1});
+  EXPECT_LT(first, second);
+  EXPECT_LT(faceOrderSpread(Scan{grid.points, sorted}), 2.0);
 }
 
 TEST(AreaWeightedVertexNormals, OctahedronVerticesPointOutwards) {
