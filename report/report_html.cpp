@@ -923,6 +923,18 @@ std::string detailChoiceRow(const Json* choice) {
   return row("baked from", text + ")");
 }
 
+// When the bake took M's triangles in Morton order (bake.json
+// detail.faces_reordered, docs/bake.md), a row saying so and why; nothing
+// otherwise, or from a manifest made before the key.
+std::string faceOrderRow(const Json* bake) {
+  const Json* reordered = at(bake, {"detail", "faces_reordered"});
+  if (reordered == nullptr || !reordered->is_boolean() || !reordered->get<bool>()) return {};
+  const std::optional<double> spread = numberAt(bake, {"detail", "face_order_spread"});
+  return row("M's triangles", fmt::format("taken in Morton order: the file lists them in no order in space "
+                                          "(consecutive ones {} edges apart, median)",
+                                          spread ? fmt::format("{:.0f}", *spread) : std::string(kNone)));
+}
+
 std::string bakeSection(const Json& manifest) {
   std::string html = "<section id=\"bake\">\n<h2>Bake</h2>\n";
   const Json* bake = results(manifest, "bake");
@@ -934,6 +946,7 @@ std::string bakeSection(const Json& manifest) {
   html += "<div class=\"grid2\">\n<table>\n";
   html += row("detail M", escaped(textAt(bake, {"detail", "kind"})) + ", " + count(numberAt(bake, {"detail", "primitives"})) + " primitives");
   html += detailChoiceRow(child(bake, "detail_source"));
+  html += faceOrderRow(bake);
   html += row("rays cast", count(rays));
   html += row("samples hit by a ray", count(hit));
   std::string fallbackText = count(fallback);

@@ -283,6 +283,20 @@ TEST(ReportHtml, SaysWhatTheApoWasBakedFromAndWhy) {
   EXPECT_THAT(qaReportHtml(m), HasSubstr("<td>baked from</td><td class=\"n\">mesh (auto: the scan is a mesh)</td>"));
 }
 
+// The bake's own decision to take M's triangles in Morton order
+// (bake.json detail.faces_reordered): a row when it did, none otherwise.
+TEST(ReportHtml, SaysWhenTheBakeTookMsTrianglesInMortonOrder) {
+  Json m = succeededManifest("shuffled.ply", 1);
+  m["results"]["bake"]["detail"] = {{"kind", "mesh"}, {"primitives", 1206528}, {"face_order_spread", 288.1},
+                                    {"faces_reordered", true}};
+  EXPECT_THAT(qaReportHtml(m), HasSubstr("<td>M's triangles</td><td class=\"n\">taken in Morton order: the file lists "
+                                         "them in no order in space (consecutive ones 288 edges apart, median)</td>"));
+  m["results"]["bake"]["detail"]["faces_reordered"] = false;
+  EXPECT_THAT(qaReportHtml(m), Not(HasSubstr("M's triangles")));
+  m["results"]["bake"]["detail"].erase("faces_reordered");
+  EXPECT_THAT(qaReportHtml(m), Not(HasSubstr("M's triangles")));
+}
+
 // The export's own decisions: patches sized by detail, the scan's colours
 // as the base colour map, or grey without them.
 TEST(ReportHtml, SaysHowTheGlbWasMade) {
