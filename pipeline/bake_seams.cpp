@@ -19,12 +19,12 @@ namespace apo {
 namespace {
 
 // faceOrderSpread beyond which M's triangles are taken in Morton order.
-// Measured: meshes in subdivision or reconstruction order 0.5-0.9 (the 1.2M
+// Measured: meshes in subdivision or reconstruction order 0.5-6 (the 1.2M
 // bunny 0.92, the 7.2M torus 0.50, advancing front's M of
-// table_scene_lms400 0.59), the bundled CGAL meshes 1-46 (armadillo and
-// diplodocus 46, bunny00 14), the 1.2M bunny shuffled 288. Only the last
-// was measured to pay (docs/benchmarks.md): the line is kept well above
-// the files as found.
+// table_scene_lms400 0.59, an icosphere's subdivision 5.7), the bundled
+// CGAL meshes 1-46 (armadillo and diplodocus 46, bunny00 14), the 1.2M
+// bunny shuffled 288. Only the last was measured to pay
+// (docs/benchmarks.md): the line is kept well above the files as found.
 constexpr double kShuffledFaceOrder = 100.0;
 
 // A search structure built on a TBB task beside the bake, waited on only by
