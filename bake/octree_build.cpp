@@ -728,20 +728,6 @@ std::vector<IdList> binIntoCells(const std::vector<GridKey>& cells, std::size_t 
 constexpr int kPointKeyDepth = 16;  // bake's deepest octree
 constexpr std::uint64_t kOutsideTheCube = ~std::uint64_t{0};  // sorted last, in no cell's run
 
-// The bits of x (16 at most) spread to every third bit.
-std::uint64_t spreadBits(std::uint32_t x) {
-  std::uint64_t v = x & 0xFFFF;
-  v = (v | v << 16) & 0x0000FF0000FF;
-  v = (v | v << 8) & 0x00F00F00F00F;
-  v = (v | v << 4) & 0x0C30C30C30C3;
-  v = (v | v << 2) & 0x249249249249;
-  return v;
-}
-
-std::uint64_t mortonCode(std::uint32_t x, std::uint32_t y, std::uint32_t z) {
-  return spreadBits(x) << 2 | spreadBits(y) << 1 | spreadBits(z);
-}
-
 // Positions [first, end) of a sorted key array: the points in a cell (in
 // PointOrder), M's fine cells in a cell (in FineSums).
 struct KeyRun {

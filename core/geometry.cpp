@@ -52,16 +52,6 @@ Vec3f centreOf(const Scan& mesh, const Triangle& t) {
   return (p[t[0]] + p[t[1]] + p[t[2]]) / 3.0f;
 }
 
-// The bits of x (10 at most) spread to every third bit.
-std::uint32_t spreadTenBits(std::uint32_t x) {
-  x &= 0x3FF;
-  x = (x | x << 16) & 0x030000FF;
-  x = (x | x << 8) & 0x0300F00F;
-  x = (x | x << 4) & 0x030C30C3;
-  x = (x | x << 2) & 0x09249249;
-  return x;
-}
-
 }  // namespace
 
 double faceOrderSpread(const Scan& mesh) {
@@ -96,9 +86,7 @@ std::vector<Triangle> trianglesInMortonOrder(const Scan& mesh) {
   std::vector<std::uint64_t> keyed(mesh.triangles.size());
   for (std::size_t i = 0; i < keyed.size(); ++i) {
     const Vec3f centre = centreOf(mesh, mesh.triangles[i]);
-    const std::uint64_t code =
-        spreadTenBits(cellOn(centre, 0)) << 2 | spreadTenBits(cellOn(centre, 1)) << 1 | spreadTenBits(cellOn(centre, 2));
-    keyed[i] = code << 32 | i;
+    keyed[i] = mortonCode(cellOn(centre, 0), cellOn(centre, 1), cellOn(centre, 2)) << 32 | i;
   }
   std::sort(keyed.begin(), keyed.end());
   std::vector<Triangle> sorted;

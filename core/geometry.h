@@ -105,6 +105,21 @@ std::vector<Vec3f> vertexNormalsAsDrawn(const Scan& mesh);
 // Total area of a mesh's triangles.
 double surfaceArea(const Scan& mesh);
 
+// The Morton code of grid cell (x, y, z), 16 bits at most per coordinate:
+// their bits interleaved, x's highest. Inline: the bake's octree build
+// codes millions of pieces with it.
+inline std::uint64_t mortonCode(std::uint32_t x, std::uint32_t y, std::uint32_t z) {
+  const auto spread = [](std::uint32_t coordinate) {  // to every third bit
+    std::uint64_t v = coordinate & 0xFFFF;
+    v = (v | v << 16) & 0x0000FF0000FF;
+    v = (v | v << 8) & 0x00F00F00F00F;
+    v = (v | v << 4) & 0x0C30C30C30C3;
+    v = (v | v << 2) & 0x249249249249;
+    return v;
+  };
+  return spread(x) << 2 | spread(y) << 1 | spread(z);
+}
+
 // How far apart consecutive triangles of the list lie: the median, over up
 // to 4,096 pairs spread along it, of the distance between the centres of
 // triangles i and i + 1, in units of those triangles' mean edge length (0
