@@ -1414,12 +1414,22 @@ std::uint8_t childrenMeeting(const Vec3f& a, const Vec3f& b, const Vec3f& c, con
     const Vec3f shift = quarter * axis;
     const float radius = quarter * axis.cwiseAbs().sum();
     const float tolerance = kRounding * axis.cwiseAbs().sum() * reach;
+    // All eight children judged at once, without a branch per child (the
+    // loop skipping those already apart spent its time mispredicting): a
+    // child already apart is judged again to no effect.
+    std::array<float, 8> gap;
     for (unsigned child = 0; child < 8; ++child) {
-      if (!(meeting & (1u << child))) continue;
       const float offset = ((child & 4) ? -shift.x() : shift.x()) + ((child & 2) ? -shift.y() : shift.y()) +
                            ((child & 1) ? -shift.z() : shift.z());
-      judge(1u << child, std::max(lo - offset - radius, -radius - (hi - offset)), tolerance);
+      gap[child] = std::max(lo - offset - radius, -radius - (hi - offset));
     }
+    unsigned apart = 0, near = 0;
+    for (unsigned child = 0; child < 8; ++child) {
+      apart |= static_cast<unsigned>(gap[child] > tolerance) << child;
+      near |= static_cast<unsigned>(gap[child] >= -tolerance) << child;
+    }
+    meeting &= ~apart;
+    unsure |= near & ~apart;
   };
   const std::array<Vec3f, 3> edges = {v1 - v0, v2 - v1, v0 - v2};
   if (meeting != 0) separate(edges[0].cross(edges[1]));
@@ -1431,16 +1441,17 @@ std::uint8_t childrenMeeting(const Vec3f& a, const Vec3f& b, const Vec3f& c, con
   return static_cast<std::uint8_t>(meeting);
 }
 
-std::vector<Vec3f> clipTriangleToCell(const Vec3f& a, const Vec3f& b, const Vec3f& c, const Cell& cell) {
+CellPolygon clipTriangleToCell(const Vec3f& a, const Vec3f& b, const Vec3f& c, const Cell& cell) {
   const TriangleFrame frame(a, b, c);
   const ParameterPolygon part = clipInParameters(frame, cell);
-  std::vector<Vec3f> corners;
+  CellPolygon polygon;
   for (int k = 0; k < part.size; ++k)
-    corners.push_back((frame.origin + part.corners[k].x() * frame.alongU + part.corners[k].y() * frame.alongV).cast<float>());
-  return corners;
+    polygon.corners[polygon.size++] =
+        (frame.origin + part.corners[k].x() * frame.alongU + part.corners[k].y() * frame.alongV).cast<float>();
+  return polygon;
 }
 
-double polygonArea(const std::vector<Vec3f>& polygon) {
+double polygonArea(std::span<const Vec3f> polygon) {
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   for (std::size_t i = 1; i + 1 < polygon.size(); ++i)
     sum += (polygon[i] - polygon[0]).cast<double>().cross((polygon[i + 1] - polygon[0]).cast<double>());

@@ -6,6 +6,7 @@
 
 #include <array>
 #include <cstdint>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -36,9 +37,15 @@ std::uint8_t childrenMeeting(const Vec3f& a, const Vec3f& b, const Vec3f& c, con
                              std::uint8_t wanted = 0xFF);
 
 // The part of triangle abc inside the cell (Sutherland-Hodgman against the
-// six faces): a convex polygon of up to 9 corners, empty when they miss.
-std::vector<Vec3f> clipTriangleToCell(const Vec3f& a, const Vec3f& b, const Vec3f& c, const Cell& cell);
-double polygonArea(const std::vector<Vec3f>& polygon);
+// six faces): a convex polygon of up to 9 corners, none when they miss. In
+// place: the sampling clips each of m's triangles to each leaf it is in.
+struct CellPolygon {
+  std::array<Vec3f, 9> corners;
+  int size = 0;
+  std::span<const Vec3f> view() const { return {corners.data(), static_cast<std::size_t>(size)}; }
+};
+CellPolygon clipTriangleToCell(const Vec3f& a, const Vec3f& b, const Vec3f& c, const Cell& cell);
+double polygonArea(std::span<const Vec3f> polygon);
 
 // A triangle of M as the L2,1 metric reads it, in one record: the build
 // reads every triangle once per level it descends, and corners, normals and

@@ -16,6 +16,7 @@
 #include <cmath>
 #include <bit>
 #include <optional>
+#include <span>
 
 namespace apo::sampling {
 namespace {
@@ -45,7 +46,7 @@ std::array<float, 2> r2Point(int j) {
 
 // k points spread over a convex polygon: the fan triangle of each is picked
 // by stratified area, the point in it by the R2 sequence.
-std::vector<Vec3f> stratifiedPoints(const std::vector<Vec3f>& polygon, int k) {
+std::vector<Vec3f> stratifiedPoints(std::span<const Vec3f> polygon, int k) {
   std::vector<double> cumulative;
   double total = 0.0;
   for (std::size_t i = 1; i + 1 < polygon.size(); ++i) {
@@ -97,14 +98,14 @@ class LeafSampler {
       const std::uint32_t t = built_.leafTriangles[i];
       const Triangle& tri = unit.triangles[t];
       const Vec3f &a = unit.positions[tri[0]], &b = unit.positions[tri[1]], &c = unit.positions[tri[2]];
-      const std::vector<Vec3f> inside = octree::clipTriangleToCell(a, b, c, cell);
-      const double clippedArea = inside.size() >= 3 ? octree::polygonArea(inside) : 0.0;
+      const octree::CellPolygon inside = octree::clipTriangleToCell(a, b, c, cell);
+      const double clippedArea = inside.size >= 3 ? octree::polygonArea(inside.view()) : 0.0;
       area += clippedArea;
-      if (settings_.samples == 1 || inside.size() < 3) {
+      if (settings_.samples == 1 || inside.size < 3) {
         samples.push_back({leafSlot, t, closestPointOnTriangle(cell.centre, a, b, c).weights, clippedArea});
         continue;
       }
-      for (const Vec3f& p : stratifiedPoints(inside, settings_.samples))
+      for (const Vec3f& p : stratifiedPoints(inside.view(), settings_.samples))
         samples.push_back({leafSlot, t, barycentricsOf(p, a, b, c), clippedArea / settings_.samples});
     }
   }

@@ -128,7 +128,7 @@ TEST(ClipTriangleToCell, AreaMatchesMonteCarlo) {
     const double expected = area * inside / samples;
     // Binomial standard error of the fraction, times the area, times 5.
     const double tolerance = 5.0 * area * std::sqrt(0.25 / samples) + 1e-7;
-    EXPECT_NEAR(polygonArea(clipTriangleToCell(a, b, c, cell)), expected, tolerance) << "trial " << trial;
+    EXPECT_NEAR(polygonArea(clipTriangleToCell(a, b, c, cell).view()), expected, tolerance) << "trial " << trial;
   }
 }
 
