@@ -16,6 +16,7 @@
 
 #include <fstream>
 #include <memory>
+#include <utility>
 
 namespace apo::cli {
 namespace fs = std::filesystem;
@@ -96,7 +97,7 @@ Result<std::unique_ptr<ClosestPointFinder>> detailClosestPoint(const ExportComma
   if (!detail->isMesh())
     return badInput("{}: --source detail needs M as a triangle mesh; the file has only points", path.string());
   moveToFrame(*detail, origin);
-  auto finder = meshClosestPoint(*detail);
+  auto finder = meshClosestPoint(std::move(*detail));
   if (!finder) return aboutInput(path, finder.error());
   return finder;
 }

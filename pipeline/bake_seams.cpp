@@ -13,6 +13,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace apo {
@@ -187,11 +188,10 @@ Result<Bake> bakeApo(const Scan& detail, const Scan& coarse, const BakeOptions& 
   return bake;
 }
 
-Result<std::unique_ptr<ClosestPointFinder>> meshClosestPoint(const Scan& mesh) {
+Result<std::unique_ptr<ClosestPointFinder>> meshClosestPoint(Scan mesh) {
   if (!mesh.isMesh()) return badInput("a closest point with its normal needs a triangle mesh, not points");
-  Scan withNormals = mesh;
-  addVertexNormalsIfMissing(withNormals);
-  return makeEmbreeClosestPoint(withNormals);
+  addVertexNormalsIfMissing(mesh);
+  return makeEmbreeClosestPoint(std::move(mesh));
 }
 
 Result<std::vector<Vec3f>> coarseNormalsAt(const Scan& coarse, const std::vector<Vec3f>& points) {

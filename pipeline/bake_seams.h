@@ -28,7 +28,8 @@ Result<std::vector<Vec3f>> coarseNormalsAt(const Scan& coarse, const std::vector
 // A mesh's exact closest point (Embree's point query) with its interpolated
 // vertex normal there (the file's normals, else area-weighted ones): M as a
 // normal field for `apo export --source detail`, the truth of
-// ../shared/tools/normal_eval.py. BadInput when `mesh` has no triangles.
-Result<std::unique_ptr<ClosestPointFinder>> meshClosestPoint(const Scan& mesh);
+// ../shared/tools/normal_eval.py. BadInput when `mesh` has no triangles. The
+// finder keeps the mesh: pass it by std::move when done with it.
+Result<std::unique_ptr<ClosestPointFinder>> meshClosestPoint(Scan mesh);
 
 }  // namespace apo

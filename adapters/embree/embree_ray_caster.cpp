@@ -11,6 +11,7 @@
 #include <functional>
 #include <limits>
 #include <string>
+#include <utility>
 
 namespace apo {
 namespace {
@@ -107,18 +108,18 @@ class EmbreeCaster final : public RayCaster {
 };
 
 
-bool fillTriangles(RTCGeometry geometry, const Scan& mesh) {
+bool fillTriangles(RTCGeometry geometry, const std::vector<Vec3f>& positions, const std::vector<Triangle>& triangles) {
   // Embree may read 16 bytes at the last vertex: one float of padding.
   auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(
-      geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), mesh.points.size() + 1));
+      geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), positions.size() + 1));
   auto* indices = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
-      geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), mesh.triangles.size()));
+      geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), triangles.size()));
   if (!vertices || !indices) return false;
-  for (std::size_t i = 0; i < mesh.points.size(); ++i)
-    for (int c = 0; c < 3; ++c) vertices[3 * i + c] = mesh.points.positions[i][c];
-  for (int c = 0; c < 3; ++c) vertices[3 * mesh.points.size() + c] = 0.0f;
-  for (std::size_t i = 0; i < mesh.triangles.size(); ++i)
-    for (int c = 0; c < 3; ++c) indices[3 * i + c] = mesh.triangles[i][c];
+  for (std::size_t i = 0; i < positions.size(); ++i)
+    for (int c = 0; c < 3; ++c) vertices[3 * i + c] = positions[i][c];
+  for (int c = 0; c < 3; ++c) vertices[3 * positions.size() + c] = 0.0f;
+  for (std::size_t i = 0; i < triangles.size(); ++i)
+    for (int c = 0; c < 3; ++c) indices[3 * i + c] = triangles[i][c];
   return true;
 }
 
@@ -161,16 +162,13 @@ Status checkDiscInput(const PointSet& points, const std::vector<float>& radii) {
 // closer triangle point. Const and thread-safe like intersect().
 class EmbreeClosestPoint final : public ClosestPointFinder {
  public:
-  explicit EmbreeClosestPoint(const Scan& mesh)
-      : positions_(mesh.points.positions), normals_(mesh.points.normals), triangles_(mesh.triangles) {}
+  explicit EmbreeClosestPoint(Scan mesh)
+      : positions_(std::move(mesh.points.positions)),
+        normals_(std::move(mesh.points.normals)),
+        triangles_(std::move(mesh.triangles)) {}
 
   Status build() {
-    return scene_.build(RTC_GEOMETRY_TYPE_TRIANGLE, [&](RTCGeometry g) {
-      Scan mesh;
-      mesh.points.positions = positions_;
-      mesh.triangles = triangles_;
-      return fillTriangles(g, mesh);
-    });
+    return scene_.build(RTC_GEOMETRY_TYPE_TRIANGLE, [&](RTCGeometry g) { return fillTriangles(g, positions_, triangles_); });
   }
 
   std::optional<SurfacePoint> closest(const Vec3f& query) const override {
@@ -226,7 +224,8 @@ Result<std::unique_ptr<RayCaster>> meshCaster(const Scan& mesh, bool quickBuild)
   if (!mesh.isMesh()) return badInput("ray casting needs a triangle mesh, got {} points and no triangles", mesh.points.size());
   return catchLibraryErrors("Embree triangle BVH", [&]() -> Result<std::unique_ptr<RayCaster>> {
     auto caster = std::make_unique<EmbreeCaster>();
-    APO_RETURN_IF_ERROR(caster->build(RTC_GEOMETRY_TYPE_TRIANGLE, [&](RTCGeometry g) { return fillTriangles(g, mesh); }, quickBuild));
+    const auto fill = [&](RTCGeometry g) { return fillTriangles(g, mesh.points.positions, mesh.triangles); };
+    APO_RETURN_IF_ERROR(caster->build(RTC_GEOMETRY_TYPE_TRIANGLE, fill, quickBuild));
     return std::unique_ptr<RayCaster>(std::move(caster));
   });
 }
@@ -237,13 +236,13 @@ Result<std::unique_ptr<RayCaster>> makeEmbreeMeshCaster(const Scan& mesh) { retu
 
 Result<std::unique_ptr<RayCaster>> makeQuickBuiltEmbreeMeshCaster(const Scan& mesh) { return meshCaster(mesh, true); }
 
-Result<std::unique_ptr<ClosestPointFinder>> makeEmbreeClosestPoint(const Scan& mesh) {
+Result<std::unique_ptr<ClosestPointFinder>> makeEmbreeClosestPoint(Scan mesh) {
   if (!mesh.isMesh()) return badInput("the closest point of a mesh needs triangles, got {} points and none", mesh.points.size());
   if (mesh.points.normals.size() != mesh.points.size())
     return badInput("the closest point of a mesh needs a normal per vertex: {} vertices, {} normals", mesh.points.size(),
                     mesh.points.normals.size());
   return catchLibraryErrors("Embree point query BVH", [&]() -> Result<std::unique_ptr<ClosestPointFinder>> {
-    auto finder = std::make_unique<EmbreeClosestPoint>(mesh);
+    auto finder = std::make_unique<EmbreeClosestPoint>(std::move(mesh));
     APO_RETURN_IF_ERROR(finder->build());
     return std::unique_ptr<ClosestPointFinder>(std::move(finder));
   });

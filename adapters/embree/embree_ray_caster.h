@@ -37,7 +37,10 @@ Result<std::unique_ptr<RayCaster>> makeEmbreeDiscCaster(const PointSet& points, 
 // same BVH), its normal interpolated from the vertex normals (m's normal
 // field, where the FLANN finder's nearest vertices may lie on the other side
 // of a part thinner than m's triangles). BadInput for a point cloud or a
-// mesh without a normal per vertex. The finder copies its input.
-Result<std::unique_ptr<ClosestPointFinder>> makeEmbreeClosestPoint(const Scan& mesh);
+// mesh without a normal per vertex. The finder keeps the mesh's positions,
+// normals and triangles: pass it by std::move where the caller is done with
+// it (M in `apo export --source detail`: 1.2M triangles copied three times
+// over before).
+Result<std::unique_ptr<ClosestPointFinder>> makeEmbreeClosestPoint(Scan mesh);
 
 }  // namespace apo
