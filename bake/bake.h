@@ -112,10 +112,10 @@ struct Bake {
 
 // M as the sampler sees it: `detail` is a mesh with unit vertex normals or
 // points with unit normals; `caster` hits its triangles (hit.primitive = the
-// triangle) or its points' discs (hit.primitive = the point), and may still
-// be building when the bake starts (only the sampling casts rays on M: it
-// waits on caster->ready()); `closest` answers when both rays of a sample
-// miss, and may be building too (closest->ready()).
+// triangle) or its points' discs (hit.primitive = the point), and may build
+// its structure only when asked (only the sampling casts rays on M: it calls
+// caster->ready() first, once the octree is built); `closest` answers when
+// both rays of a sample miss, and may still be building (closest->ready()).
 struct DetailSurface {
   const Scan* detail = nullptr;
   const RayCaster* caster = nullptr;

@@ -35,7 +35,8 @@ class RayCaster {
   // Nearest hit of each ray; hits[i] answers rays[i]. Deterministic.
   virtual void intersect(const std::vector<Ray>& rays, std::vector<RayHit>& hits) const = 0;
   // Returns once the caster can answer, or why it never will: a caster may
-  // still be building its structure (the bake builds M's beside the octree).
+  // still have its structure to build (the bake builds M's when the sampling
+  // first asks).
   // Call it before the first intersect.
   virtual Status ready() const { return okStatus(); }
 };

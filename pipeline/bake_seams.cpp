@@ -62,25 +62,39 @@ class BuiltAside {
   std::optional<Result<T>> built_;
 };
 
-// M's ray caster built beside the bake: rays are cast on M only once the
-// octree is built (the sampling), so Embree's BVH (0.45 s of the
-// 1.2M-triangle bunny's 4 s) is built while the projection onto m and the
-// octree's serial rounds leave a core idle.
-class CasterBuiltAside final : public RayCaster {
+// M's ray caster, built when the bake first asks for it (ready(), before
+// the sampling's first ray: only the sampling casts rays on M). By then the
+// octree's build has freed what it held (M's records for the metric, the
+// candidates' lists), and Embree's BVH takes that memory again. Built beside
+// the octree, as it was, the BVH raised the 1.2M bunny's peak from 458 to
+// 585 MB and the 7.2M torus's from 1.43 to 2.18 GB, and that fresh memory
+// cost more wall time than the build now adds, alone on every core
+// (docs/benchmarks.md, "M's BVH built when the sampling asks").
+class CasterBuiltWhenAsked final : public RayCaster {
  public:
-  void start(std::string what, std::function<Result<std::unique_ptr<RayCaster>>()> make) {
-    aside_.start("M's ray caster (" + what + ")", std::move(make));
+  void prepare(std::string what, std::function<Result<std::unique_ptr<RayCaster>>()> make) {
+    what_ = std::move(what);
+    make_ = std::move(make);
   }
+  // On the bake's thread only, as bakeWith calls it.
   Status ready() const override {
-    APO_RETURN_IF_ERROR(aside_.ready());
-    return aside_.get()->ready();
+    if (!built_) {
+      if (!make_) return internalError("bake: M's ray caster was asked for before it was prepared");
+      const Stopwatch building;
+      built_.emplace(make_());
+      spdlog::info("bake: {} built in {:.2f} s", what_, building.seconds());
+    }
+    if (!built_->ok()) return built_->error();
+    return built_->value()->ready();
   }
   void intersect(const std::vector<Ray>& rays, std::vector<RayHit>& hits) const override {
-    aside_.get()->intersect(rays, hits);
+    built_->value()->intersect(rays, hits);
   }
 
  private:
-  BuiltAside<std::unique_ptr<RayCaster>> aside_;
+  std::string what_;
+  std::function<Result<std::unique_ptr<RayCaster>>()> make_;
+  mutable std::optional<Result<std::unique_ptr<RayCaster>>> built_;
 };
 
 // A point scan's k-d tree (FLANN: the discs' radii, and the closest point
@@ -102,17 +116,18 @@ class PointsSearchAside final : public ClosestPointFinder {
   BuiltAside<PointsSearch> aside_;
 };
 
-// M's caster and closest-point finder, both made beside the bake. A mesh:
-// its triangles, and the finder built on its first query (the rays rarely
-// miss M). Points: a disc per point whose area is the point's share of the
-// surface, the radii and the finder from one k-d tree (a second tree over 2M
-// points cost 0.3 s, for 54 samples whose rays missed every disc); the
-// discs' BVH starts once the radii are known, when the bake asks for the
-// points' areas (DetailSurface::awaitPointAreas).
+// M's caster and closest-point finder. A mesh: its triangles' BVH built
+// when the sampling asks, and the finder built on its first query (the rays
+// rarely miss M). Points: a disc per point whose area is the point's share
+// of the surface, the radii and the finder from one k-d tree built beside
+// the bake from the start (a second tree over 2M points cost 0.3 s, for 54
+// samples whose rays missed every disc); the discs' BVH is prepared once the
+// radii are known, when the bake asks for the points' areas
+// (DetailSurface::awaitPointAreas), and built when the sampling asks.
 struct DetailSearch {
   std::unique_ptr<ClosestPointFinder> closest;
-  // After `closest`, so destroyed first: the discs' build reads the radii.
-  std::unique_ptr<CasterBuiltAside> caster = std::make_unique<CasterBuiltAside>();
+  // After `closest`, so destroyed first: the discs' BVH was made from the radii.
+  std::unique_ptr<CasterBuiltWhenAsked> caster = std::make_unique<CasterBuiltWhenAsked>();
 };
 
 Result<DetailSearch> detailSearch(const Scan& M, DetailSurface& surface) {
@@ -123,8 +138,8 @@ Result<DetailSearch> detailSearch(const Scan& M, DetailSurface& surface) {
     search.closest = std::move(closest).value();
     // About one ray per triangle of M: the BVH's build costs more than the
     // rays lose to a quicker one's lower quality.
-    search.caster->start(fmt::format("Embree BVH over {} triangles", M.triangles.size()),
-                         [&M] { return makeQuickBuiltEmbreeMeshCaster(M); });
+    search.caster->prepare(fmt::format("M's ray caster (Embree BVH over {} triangles)", M.triangles.size()),
+                           [&M] { return makeQuickBuiltEmbreeMeshCaster(M); });
     return search;
   }
   auto points = std::make_unique<PointsSearchAside>(M.points);
@@ -133,8 +148,8 @@ Result<DetailSearch> detailSearch(const Scan& M, DetailSurface& surface) {
     APO_RETURN_IF_ERROR(points->ready());
     surface.pointAreas.clear();
     for (const float r : points->radii()) surface.pointAreas.push_back(r * r);
-    caster->start(fmt::format("Embree BVH over {} discs", M.points.size()),
-                  [&M, points] { return makeEmbreeDiscCaster(M.points, points->radii()); });
+    caster->prepare(fmt::format("M's ray caster (Embree BVH over {} discs)", M.points.size()),
+                    [&M, points] { return makeEmbreeDiscCaster(M.points, points->radii()); });
     return okStatus();
   };
   search.closest = std::move(points);
