@@ -8,7 +8,7 @@
 //              the bake's caster of M
 //   sah-fast   binned SAH without the robust flag (rays may slip between triangles)
 //   morton-compact  Morton codes, robust, RTC_SCENE_FLAG_COMPACT
-// Usage: embree_options MESH [THREADS] [REPEATS]
+// Usage: embree_options MESH [THREADS] [REPEATS] [VARIANT] (VARIANT: that one only)
 #include "core/geometry.h"
 #include "ingest/ingest.h"
 
@@ -17,7 +17,10 @@
 
 #include <time.h>
 
+#include <algorithm>
 #include <cstdlib>
+#include <iterator>
+#include <string>
 #include <vector>
 
 namespace {
@@ -99,7 +102,7 @@ void measure(const apo::Scan& mesh, const Variant& variant, const std::string& c
 
 int main(int argc, char** argv) {
   if (argc < 2) {
-    fmt::print(stderr, "usage: embree_options MESH [THREADS] [REPEATS]\n");
+    fmt::print(stderr, "usage: embree_options MESH [THREADS] [REPEATS] [VARIANT]\n");
     return 2;
   }
   auto mesh = apo::readScan(argv[1]);
@@ -109,6 +112,7 @@ int main(int argc, char** argv) {
   }
   const int threads = argc > 2 ? std::atoi(argv[2]) : 1;
   const int repeats = argc > 3 ? std::atoi(argv[3]) : 3;
+  const std::string only = argc > 4 ? argv[4] : "";
   const std::string config = fmt::format("threads={}", threads);
   const float reach = 0.01f * apo::boundingBox(mesh->points.positions).diagonal();
   const Variant variants[] = {
@@ -117,8 +121,13 @@ int main(int argc, char** argv) {
       {"sah-fast", RTC_BUILD_QUALITY_MEDIUM, RTC_SCENE_FLAG_NONE},
       {"morton-compact", RTC_BUILD_QUALITY_LOW, static_cast<RTCSceneFlags>(RTC_SCENE_FLAG_ROBUST | RTC_SCENE_FLAG_COMPACT)},
   };
+  if (!only.empty() && std::none_of(std::begin(variants), std::end(variants), [&](const Variant& v) { return only == v.name; })) {
+    fmt::print(stderr, "unknown variant '{}': sah, morton, sah-fast or morton-compact\n", only);
+    return 2;
+  }
   fmt::print("{}: {} triangles, {} thread(s), CPU seconds\n", argv[1], mesh->triangles.size(), threads);
   for (int r = 0; r < repeats; ++r)
-    for (const Variant& variant : variants) measure(*mesh, variant, config, reach);
+    for (const Variant& variant : variants)
+      if (only.empty() || only == variant.name) measure(*mesh, variant, config, reach);
   return 0;
 }
