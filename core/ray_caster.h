@@ -36,8 +36,7 @@ class RayCaster {
   virtual void intersect(const std::vector<Ray>& rays, std::vector<RayHit>& hits) const = 0;
   // Returns once the caster can answer, or why it never will: a caster may
   // still have its structure to build (the bake builds M's when the sampling
-  // first asks).
-  // Call it before the first intersect.
+  // first asks). Call it before the first intersect.
   virtual Status ready() const { return okStatus(); }
 };
 

@@ -126,7 +126,7 @@ class PointsSearchAside final : public ClosestPointFinder {
 // (DetailSurface::awaitPointAreas), and built when the sampling asks.
 struct DetailSearch {
   std::unique_ptr<ClosestPointFinder> closest;
-  // After `closest`, so destroyed first: the discs' BVH was made from the radii.
+  // After `closest`, so destroyed first: the discs' builder reads the radii `closest` holds.
   std::unique_ptr<CasterBuiltWhenAsked> caster = std::make_unique<CasterBuiltWhenAsked>();
 };
 
