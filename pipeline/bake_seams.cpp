@@ -73,7 +73,7 @@ class BuiltAside {
 class CasterBuiltWhenAsked final : public RayCaster {
  public:
   void prepare(std::string what, std::function<Result<std::unique_ptr<RayCaster>>()> make) {
-    what_ = std::move(what);
+    what_ = "M's ray caster (" + what + ")";
     make_ = std::move(make);
   }
   // On the bake's thread only, as bakeWith calls it.
@@ -138,7 +138,7 @@ Result<DetailSearch> detailSearch(const Scan& M, DetailSurface& surface) {
     search.closest = std::move(closest).value();
     // About one ray per triangle of M: the BVH's build costs more than the
     // rays lose to a quicker one's lower quality.
-    search.caster->prepare(fmt::format("M's ray caster (Embree BVH over {} triangles)", M.triangles.size()),
+    search.caster->prepare(fmt::format("Embree BVH over {} triangles", M.triangles.size()),
                            [&M] { return makeQuickBuiltEmbreeMeshCaster(M); });
     return search;
   }
@@ -148,7 +148,7 @@ Result<DetailSearch> detailSearch(const Scan& M, DetailSurface& surface) {
     APO_RETURN_IF_ERROR(points->ready());
     surface.pointAreas.clear();
     for (const float r : points->radii()) surface.pointAreas.push_back(r * r);
-    caster->prepare(fmt::format("M's ray caster (Embree BVH over {} discs)", M.points.size()),
+    caster->prepare(fmt::format("Embree BVH over {} discs", M.points.size()),
                     [&M, points] { return makeEmbreeDiscCaster(M.points, points->radii()); });
     return okStatus();
   };
