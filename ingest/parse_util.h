@@ -76,6 +76,11 @@ class BinaryCursor {
     pos_ += count;
   }
 
+  // The bytes not read yet, and a step over some of them (at most
+  // remaining(): for callers that decode a run of records themselves).
+  const char* here() const { return bytes_.data() + pos_; }
+  void advance(std::size_t count) { pos_ += count; }
+
   template <class T>
   T read(bool bigEndian, std::string_view what) {
     static_assert(std::is_arithmetic_v<T>);

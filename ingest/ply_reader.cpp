@@ -14,7 +14,9 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <initializer_list>
@@ -22,6 +24,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <type_traits>
 #include <vector>
 
 namespace apo::readers {
@@ -446,6 +449,38 @@ class BinaryBody {
     cursor_.skip(count * byteSize(property.type), what_);
   }
 
+  // The faces of an element whose one property is a list of uchar
+  // count and 32-bit indices, in this machine's byte order, decoded straight
+  // from the bytes while each face is a triangle whose indices are in range
+  // (the faces of nearly every mesh file): the generic path's per-value
+  // conversions and checks took most of the 1.2M-triangle bunny's read.
+  // Returns the face it stopped at; the generic path goes on from there, and
+  // names a bad face as it always has.
+  std::uint64_t triangleFaces(const Element& element, std::uint64_t vertexCount, std::vector<Triangle>& triangles) {
+    constexpr std::size_t kBytes = 1 + 3 * sizeof(std::uint32_t);
+    if (element.properties.size() != 1) return 0;
+    const Property& list = element.properties.front();
+    if (list.listCountType != ScalarType::UInt8 || (list.type != ScalarType::Int32 && list.type != ScalarType::UInt32) ||
+        bigEndian_ != (std::endian::native == std::endian::big))
+      return 0;
+    // Signed indices: a negative one reads as 2^31 or more, out of range
+    // unless M has that many vertices, which the generic path then takes.
+    const std::uint64_t limit =
+        list.type == ScalarType::Int32 ? std::min<std::uint64_t>(vertexCount, std::uint64_t{1} << 31) : vertexCount;
+    std::uint64_t face = 0;
+    for (; face < element.count && cursor_.remaining() >= kBytes; ++face) {
+      const char* bytes = cursor_.here();
+      std::array<std::uint32_t, 3> corners;
+      std::memcpy(corners.data(), bytes + 1, sizeof(corners));
+      if (static_cast<unsigned char>(bytes[0]) != 3 || corners[0] >= limit || corners[1] >= limit ||
+          corners[2] >= limit)
+        break;
+      triangles.push_back({corners[0], corners[1], corners[2]});
+      cursor_.advance(kBytes);
+    }
+    return face;
+  }
+
   void endRecord() const {}
   // Trailing bytes after the last element are tolerated: some writers pad.
   void finish() const {}
@@ -572,7 +607,9 @@ void readFaces(const FacePlan& plan, std::uint64_t vertexCount, Body& body, std:
   const Element& element = *plan.element;
   triangles.reserve(triangles.size() + static_cast<std::size_t>(element.count));
   std::vector<std::uint32_t> polygon;
-  for (std::uint64_t face = 0; face < element.count; ++face) {
+  std::uint64_t first = 0;
+  if constexpr (std::is_same_v<Body, BinaryBody>) first = body.triangleFaces(element, vertexCount, triangles);
+  for (std::uint64_t face = first; face < element.count; ++face) {
     body.beginRecord(face);
     for (std::size_t p = 0; p < element.properties.size(); ++p) {
       const Property& property = element.properties[p];

@@ -132,6 +132,31 @@ TEST(PlyReader, QuadsAndPentagonsAreFanTriangulated) {
   EXPECT_EQ(scan.triangles, (std::vector<Triangle>{{0, 1, 2}, {0, 2, 3}, {1, 2, 3}, {1, 3, 4}, {1, 4, 5}, {5, 4, 3}}));
 }
 
+// Little-endian triangles of uchar count and 32-bit indices are decoded
+// straight from the bytes (BinaryBody::triangleFaces) until a face is not
+// such a triangle; the generic path, which big-endian files take
+// throughout, goes on from that face. Both must give the same triangles.
+TEST(PlyReader, BinaryTrianglesBeforeAndAfterAQuadReadAsTheGenericPathReadsThem) {
+  const auto file = [](bool bigEndian, const char* indexType) {
+    std::string bytes = fmt::format(
+        "ply\nformat {} 1.0\nelement vertex 5\nproperty float x\nproperty float y\nproperty float z\n"
+        "element face 4\nproperty list uchar {} vertex_indices\nend_header\n",
+        bigEndian ? "binary_big_endian" : "binary_little_endian", indexType);
+    BinaryBytes body(bigEndian);
+    for (int i = 0; i < 15; ++i) body.put(static_cast<float>(i));
+    body.put<std::uint8_t>(3).put<std::uint32_t>(0).put<std::uint32_t>(1).put<std::uint32_t>(2);
+    body.put<std::uint8_t>(4).put<std::uint32_t>(1).put<std::uint32_t>(2).put<std::uint32_t>(3).put<std::uint32_t>(4);
+    body.put<std::uint8_t>(3).put<std::uint32_t>(4).put<std::uint32_t>(3).put<std::uint32_t>(0);
+    body.put<std::uint8_t>(3).put<std::uint32_t>(2).put<std::uint32_t>(4).put<std::uint32_t>(1);
+    return bytes + body.str();
+  };
+  const std::vector<Triangle> expected = {{0, 1, 2}, {1, 2, 3}, {1, 3, 4}, {4, 3, 0}, {2, 4, 1}};
+  for (const char* indexType : {"int", "uint"}) {
+    EXPECT_EQ(readPly(file(false, indexType)).triangles, expected) << indexType;
+    EXPECT_EQ(readPly(file(true, indexType)).triangles, expected) << indexType;
+  }
+}
+
 TEST(PlyReader, VertexIndexNameAndOtherFaceProperties) {
   const Scan scan = readPly(
       "ply\nformat ascii 1.0\nelement vertex 4\n"
@@ -499,6 +524,20 @@ TEST(PlyReaderFailure, BinaryNegativeFaceIndex) {
   body.put<std::uint8_t>(3).put<std::int32_t>(0).put<std::int32_t>(-1).put<std::int32_t>(2);
   EXPECT_THAT(failureOf(header + body.str()),
               HasSubstr(fmt::format("byte {}: face 0: vertex index -1 out of range (3 vertices)", header.size() + 36)));
+}
+
+// A bad index after good triangles: the face and its byte are named as
+// when every face took the generic path.
+TEST(PlyReaderFailure, BinaryFaceIndexOutOfRangeAfterGoodTriangles) {
+  const std::string header = std::string("ply\nformat binary_little_endian 1.0\nelement vertex 3\n") + kXyzHeader +
+                             "element face 3\nproperty list uchar uint vertex_indices\nend_header\n";
+  BinaryBytes body(false);
+  for (int i = 0; i < 9; ++i) body.put(0.0f);
+  body.put<std::uint8_t>(3).put<std::uint32_t>(0).put<std::uint32_t>(1).put<std::uint32_t>(2);
+  body.put<std::uint8_t>(3).put<std::uint32_t>(2).put<std::uint32_t>(1).put<std::uint32_t>(0);
+  body.put<std::uint8_t>(3).put<std::uint32_t>(0).put<std::uint32_t>(3).put<std::uint32_t>(1);
+  EXPECT_THAT(failureOf(header + body.str()),
+              HasSubstr(fmt::format("byte {}: face 2: vertex index 3 out of range (3 vertices)", header.size() + 36 + 26)));
 }
 
 TEST(PlyReaderFailure, NonNumericAsciiToken) {
