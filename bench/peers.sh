@@ -20,12 +20,14 @@
 # and the script stops at the first that is missing or blank. Prints (and
 # writes to OUTDIR/peers.md) every round, the medians, the ratios of the
 # medians and the median of the rounds' ratios, against the issue's goal:
-# apo at least 3x faster than Blender and 1.5x than MeshLab. About 1.5 min a
-# round on two cores (Blender ~50 s, most of it its Python PLY import).
+# apo at least 3x faster than Blender and 1.5x than MeshLab; each one's CPU
+# seconds (user + system) beside, and `uptime`'s load before and after, for
+# a machine shared with other work. About 1 min a round on two cores
+# (Blender ~40 s, half of it its Python PLY import).
 # Usage (after the README's setup and build, plus
 # `cmake --build build -j2 --target open3d_baseline`):
-#   bash bench/peers.sh [--install] [OUTDIR]      (OUTDIR default out/peers)
-# --install first runs apt-get install (Debian 12: blender 3.4.1, meshlab
+#   bash bench/peers.sh [--install] [OUTDIR]     (OUTDIR default: the repo's out/peers)
+# --install first runs apt-get update and install (Debian 12: blender 3.4.1, meshlab
 # 2020.09 with meshlabserver, xvfb, xauth, and python3-pil/numpy for the
 # check); otherwise nothing is installed and missing tools are named.
 # Environment: APO (default build/apo), OPEN3D (build/open3d_baseline), ROUNDS.
@@ -38,11 +40,12 @@ if [ "${1:-}" = --install ]; then
   shift
 fi
 # Paths given relative to the caller's directory stay so after the cd.
-out=$(realpath -m "${1:-out/peers}")
+out=${1:+$(realpath -m "$1")}
 apo=${APO:+$(realpath -m "$APO")}
 open3d=${OPEN3D:+$(realpath -m "$OPEN3D")}
 cd "$(dirname "$0")/.."
 root=$PWD
+out=${out:-$root/out/peers}
 apo=${apo:-$root/build/apo}
 open3d=${open3d:-$root/build/open3d_baseline}
 rounds=${ROUNDS:-5}
@@ -50,6 +53,7 @@ in=$out/inputs
 side=1024
 
 if ((install)); then
+  apt-get update
   apt-get install -y --no-install-recommends "${packages[@]}"
 fi
 missing=()
@@ -115,16 +119,17 @@ blender_cmd=(blender -b --factory-startup --python-exit-code 1 --python "$root/b
 meshlab_cmd=(xvfb-run -a meshlabserver -i "$detail" -i "$out/meshlab/m.ply" -o "$out/meshlab/m_textured.ply" -m wt
   -s "$out/meshlab/peers.mlx")
 
-# One contender's run: its wall time (stdout); its output in LOG.
+# One contender's run: "WALL CPU" seconds on stdout (CPU: user + system, of
+# the process and its children); its output in LOG.
 timed() {
   local log=$1
   shift
-  if ! /usr/bin/time -f "%e" -o "$out/peers_time.txt" "$@" >"$log" 2>&1; then
+  if ! /usr/bin/time -f "%e %U %S" -o "$out/peers_time.txt" "$@" >"$log" 2>&1; then
     echo "peers.sh: failed (exit code $?): $*; see $log" >&2
     tail -20 "$log" >&2
     exit 1
   fi
-  cat "$out/peers_time.txt"
+  awk '{ printf "%s %.2f\n", $1, $2 + $3 }' "$out/peers_time.txt"
 }
 check_png() {
   /usr/bin/python3 bench/peers_png.py "$1" "$side" >"$1.check.txt" ||
@@ -152,7 +157,8 @@ for ((r = 1; r <= rounds; r++)); do
   check_png "$out/meshlab/peers_meshlab_normals.png" MeshLab
   xvfb_s=$(timed "$out/xvfb.log" xvfb-run -a true)
 
-  printf '%s\t%s\t%s\t%s\t%s\n' "$apo_s" "$blender_s" "$blender_bake" "$meshlab_s" "$xvfb_s" >>"$out/peers_runs.tsv"
+  # wall and CPU seconds: apo, Blender, Blender's bake call (wall), MeshLab, xvfb-run alone.
+  echo "$apo_s $blender_s $blender_bake $meshlab_s $xvfb_s" >>"$out/peers_runs.tsv"
 done
 load_after=$(uptime)
 
@@ -175,20 +181,22 @@ load_after=$(uptime)
   python3 - "$out/peers_runs.tsv" <<'EOF'
 import statistics, sys
 kBlenderGoal, kMeshlabGoal = 3.0, 1.5
-rows = [[float(x) for x in line.split("\t")] for line in open(sys.argv[1]) if line.strip()]
+# Per round: apo wall, CPU; Blender wall, CPU; its bake call; MeshLab wall, CPU; xvfb-run wall, CPU.
+rows = [[float(x) for x in line.split()] for line in open(sys.argv[1]) if line.strip()]
+rows = [(r[0], r[2], r[4], r[5], r[7], r[1], r[3], r[6]) for r in rows]
 median = statistics.median
 print("| round | apo s | Blender s | Blender's bake call s | MeshLab s | xvfb-run alone s | Blender / apo "
-      "| MeshLab / apo |")
-print("|---|---|---|---|---|---|---|---|")
-for i, (apo, blender, bake, meshlab, xvfb) in enumerate(rows, 1):
+      "| MeshLab / apo | CPU s: apo / Blender / MeshLab |")
+print("|---|---|---|---|---|---|---|---|---|")
+for i, (apo, blender, bake, meshlab, xvfb, apo_cpu, blender_cpu, meshlab_cpu) in enumerate(rows, 1):
     print(f"| {i} | {apo:.2f} | {blender:.2f} | {bake:.2f} | {meshlab:.2f} | {xvfb:.2f} | {blender / apo:.2f} "
-          f"| {meshlab / apo:.2f} |")
+          f"| {meshlab / apo:.2f} | {apo_cpu:.2f} / {blender_cpu:.2f} / {meshlab_cpu:.2f} |")
 cols = list(zip(*rows))
 m = [median(c) for c in cols]
-per_round_b = median(b / a for a, b, *_ in rows)
-per_round_m = median(ml / a for a, _, _, ml, _ in rows)
+per_round_b = median(r[1] / r[0] for r in rows)
+per_round_m = median(r[3] / r[0] for r in rows)
 print(f"| median | {m[0]:.2f} | {m[1]:.2f} | {m[2]:.2f} | {m[3]:.2f} | {m[4]:.2f} | {m[1] / m[0]:.2f} "
-      f"| {m[3] / m[0]:.2f} |")
+      f"| {m[3] / m[0]:.2f} | {m[5]:.2f} / {m[6]:.2f} / {m[7]:.2f} |")
 print()
 print(f"Ratios of the medians: Blender / apo {m[1] / m[0]:.2f}, MeshLab / apo {m[3] / m[0]:.2f}; medians of the "
       f"rounds' ratios: {per_round_b:.2f} and {per_round_m:.2f} ({len(rows)} rounds).")
