@@ -25,7 +25,8 @@ constexpr int kMostSamples = 64;
 
 }  // namespace
 
-Status validateBakeOptions(const BakeOptions& o) {
+template <>
+Result<Checked<BakeOptions>> check(const BakeOptions& o) {
   if (o.coarseDepth < 0 || o.coarseDepth > kDeepestCoarseDepth)
     return usageError("--coarse-depth must be in [0, {}], got {}", kDeepestCoarseDepth, o.coarseDepth);
   if (o.maxDepth < o.coarseDepth || o.maxDepth > kDeepestDepth)
@@ -41,7 +42,7 @@ Status validateBakeOptions(const BakeOptions& o) {
     return usageError("--samples must be in [1, {}], got {}", kMostSamples, o.samples);
   if (o.completeDepth < -1 || o.completeDepth > o.coarseDepth)
     return usageError("--complete-depth must be in [0, --coarse-depth ({})], got {}", o.coarseDepth, o.completeDepth);
-  return okStatus();
+  return Checked<BakeOptions>(o);
 }
 
 namespace {
@@ -303,9 +304,9 @@ void onEveryCore(std::size_t count, const std::function<void(std::size_t, std::s
 // octree build 55%, sampling 35%, encoding 5%; only for progress.
 constexpr double kBuildStart = 0.05, kSamplingStart = 0.6, kEncodingStart = 0.95;
 
-Result<Bake> bakeWith(const DetailSurface& detail, const CoarseSurface& coarseSurface, const BakeOptions& options,
-                      const ProgressCallback& onProgress) {
-  APO_RETURN_IF_ERROR(validateBakeOptions(options));
+Result<Bake> bakeWith(const DetailSurface& detail, const CoarseSurface& coarseSurface,
+                      const Checked<BakeOptions>& checkedOptions, const ProgressCallback& onProgress) {
+  const BakeOptions& options = *checkedOptions;
   APO_RETURN_IF_ERROR(validateSeams(detail, coarseSurface));
   APO_RETURN_IF_ERROR(validateBakeInputs(*detail.detail, *coarseSurface.mesh));
   const Scan& coarse = *coarseSurface.mesh;

@@ -9,6 +9,7 @@
 // the tests pass brute-force versions.
 #pragma once
 
+#include "core/checked.h"
 #include "core/closest_point.h"
 #include "core/error.h"
 #include "core/geometry.h"
@@ -135,17 +136,18 @@ struct CoarseSurface {
   const RayCaster* caster = nullptr;
 };
 
-// Usage error naming the option when one is out of range.
-Status validateBakeOptions(const BakeOptions& options);
+// A Usage error naming the first option out of range, or the options as the
+// bake takes them (core/checked.h): checked once, where they enter.
+template <>
+Result<Checked<BakeOptions>> check(const BakeOptions& options);
 // BadInput when m has no triangles, a non-finite vertex or no extent, or M is
 // empty, lacks a normal per point (vertex) or has a non-finite one.
 Status validateBakeInputs(const Scan& detail, const Scan& coarse);
 
-// The bake against the given seams. Fails as validateBakeOptions and
-// validateBakeInputs do, and with an Internal error when a seam fails (the
+// The bake against the given seams. Fails as validateBakeInputs does, and with an Internal error when a seam fails (the
 // closest-point search could not be made). Deterministic whatever the
 // thread count. `onProgress` hears the fraction done.
-Result<Bake> bakeWith(const DetailSurface& detail, const CoarseSurface& coarse, const BakeOptions& options,
+Result<Bake> bakeWith(const DetailSurface& detail, const CoarseSurface& coarse, const Checked<BakeOptions>& options,
                       const ProgressCallback& onProgress = {});
 
 std::string bakeReportJson(const BakeReport& report);  // bake.json, format_version 2

@@ -59,7 +59,7 @@ void ingestWithOpen3d(benchmark::State& state, const char* relative, int k) {
 
 void ingestWithApo(benchmark::State& state, const char* relative) {
   for (auto _ : state) {
-    auto result = apo::ingestScan(dataset(relative), apo::IngestOptions{});
+    auto result = apo::ingestScan(dataset(relative), *apo::check(apo::IngestOptions{}));
     if (!result.ok()) {
       state.SkipWithError(result.error().message.c_str());
       return;

@@ -22,7 +22,8 @@ struct BakeCommand {
 };
 
 int runBake(const BakeCommand& command) {
-  if (Status valid = validateBakeOptions(command.arguments.options); !valid.ok()) return reportFailure(valid.error());
+  const auto options = check(command.arguments.options);
+  if (!options) return reportFailure(options.error());
   const auto threads = limitThreads(command.arguments.threads);
   auto detail = readScan(command.detail);
   if (!detail) return reportFailure(detail.error());
@@ -34,7 +35,7 @@ int runBake(const BakeCommand& command) {
   if (!coarse->isMesh())
     return reportFailure(badInput("{}: the coarse mesh m must be a triangle mesh, the file has only points",
                                   command.coarse.string()));
-  auto bake = bakeApo(*detail, *coarse, command.arguments.options);
+  auto bake = bakeApo(*detail, *coarse, *options);
   if (!bake) return reportFailure(aboutInput(command.detail, bake.error()));
   if (Status s = writeApoFile(command.outDir / "scan.apo", bake->texture); !s.ok()) return reportFailure(s.error());
   if (Status s = writeApoPng(command.outDir / "texture.png", bake->texture); !s.ok()) return reportFailure(s.error());

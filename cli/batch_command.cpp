@@ -34,15 +34,15 @@ struct SlurmCommand {
 
 int runBatchCommand(CLI::App& app, const BatchCommand& command) {
   if (Status s = applyConfigFile(app, command.arguments.configFile); !s.ok()) return reportFailure(s.error());
-  BatchSettings settings;
-  settings.scanDir = command.scanDir;
-  settings.outDir = command.outDir;
-  settings.jobs = command.jobs;
-  settings.scanTimeout = command.scanTimeout;
-  settings.threads = command.arguments.bake.threads;
-  settings.options = runOptionsFrom(command.arguments);
-  if (Status valid = validateRunOptions(settings.options); !valid.ok()) return reportFailure(valid.error());
-  settings.workerArguments = givenStageArguments(app);
+  auto options = check(runOptionsFrom(command.arguments));
+  if (!options) return reportFailure(options.error());
+  BatchSettings settings{.scanDir = command.scanDir,
+                         .outDir = command.outDir,
+                         .jobs = command.jobs,
+                         .threads = command.arguments.bake.threads,
+                         .scanTimeout = command.scanTimeout,
+                         .options = *options,
+                         .workerArguments = givenStageArguments(app)};
   if (!command.shard.empty()) {
     auto shard = parseShard(command.shard);
     if (!shard) return reportFailure(shard.error());
@@ -93,7 +93,7 @@ const CLI::Validator kOneWord(
 
 int runSlurmCommand(CLI::App& app, const SlurmCommand& command) {
   if (Status s = applyConfigFile(app, command.arguments.configFile); !s.ok()) return reportFailure(s.error());
-  if (Status valid = validateRunOptions(runOptionsFrom(command.arguments)); !valid.ok()) return reportFailure(valid.error());
+  if (auto options = check(runOptionsFrom(command.arguments)); !options) return reportFailure(options.error());
   std::error_code error;
   SlurmSettings settings;
   settings.scanDir = fs::absolute(command.scanDir, error);

@@ -29,8 +29,9 @@ struct IngestCommand {
 
 int runIngest(IngestCommand command) {
   command.arguments.apply();
-  if (Status valid = validateIngestOptions(command.arguments.options); !valid.ok()) return reportFailure(valid.error());
-  auto result = ingestScan(command.input, command.arguments.options);
+  const auto options = check(command.arguments.options);
+  if (!options) return reportFailure(options.error());
+  auto result = ingestScan(command.input, *options);
   if (!result) return reportFailure(result.error());
   if (Status written = writeIngestOutputs(command.outDir, *result); !written.ok()) return reportFailure(written.error());
   const IngestReport& report = result->report;
@@ -47,11 +48,12 @@ struct SimulateScanCommand {
 };
 
 int runSimulateScan(const SimulateScanCommand& command) {
-  if (Status valid = validateSimulateScanOptions(command.options); !valid.ok()) return reportFailure(valid.error());
+  const auto options = check(command.options);
+  if (!options) return reportFailure(options.error());
   auto mesh = readScan(command.mesh);
   if (!mesh) return reportFailure(mesh.error());
   if (!mesh->isMesh()) return reportFailure(badInput("{}: simulate-scan needs a triangle mesh, the file has only points", command.mesh.string()));
-  auto simulated = simulateRangeScan(*mesh, command.options);
+  auto simulated = simulateRangeScan(*mesh, *options);
   if (!simulated) return reportFailure(aboutInput(command.mesh, simulated.error()));
   if (Status written = writePly(command.output, simulated->scan); !written.ok()) return reportFailure(written.error());
   spdlog::info("simulate-scan: {} points from {} views -> {}", simulated->scan.points.size(), command.options.views,
@@ -66,10 +68,11 @@ struct ReconstructCommand {
 };
 
 int runReconstruct(const ReconstructCommand& command) {
-  if (Status valid = validateReconstructOptions(command.options); !valid.ok()) return reportFailure(valid.error());
+  const auto options = check(command.options);
+  if (!options) return reportFailure(options.error());
   auto scan = readScan(command.input);
   if (!scan) return reportFailure(scan.error());
-  auto reconstruction = reconstructScan(*scan, command.options);
+  auto reconstruction = reconstructScan(*scan, *options);
   if (!reconstruction) return reportFailure(aboutInput(command.input, reconstruction.error()));
   if (Status written = writeMeshAndReport(command.outDir / "M.ply", reconstruction->mesh, command.outDir / "reconstruct.json",
                                           reconstructReportJson(reconstruction->report));
@@ -90,10 +93,11 @@ struct SimplifyCommand {
 
 int runSimplify(SimplifyCommand command) {
   command.arguments.apply();
-  if (Status valid = validateSimplifyOptions(command.arguments.options); !valid.ok()) return reportFailure(valid.error());
+  const auto options = check(command.arguments.options);
+  if (!options) return reportFailure(options.error());
   auto mesh = readScan(command.input);
   if (!mesh) return reportFailure(mesh.error());
-  auto simplified = simplifyMesh(*mesh, command.arguments.options);
+  auto simplified = simplifyMesh(*mesh, *options);
   if (!simplified) return reportFailure(aboutInput(command.input, simplified.error()));
   if (Status written = writeMeshAndReport(command.outDir / "m.ply", simplified->mesh, command.outDir / "simplify.json",
                                           simplifyReportJson(simplified->report));

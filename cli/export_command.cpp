@@ -113,7 +113,8 @@ NormalField detailNormalField(const ClosestPointFinder& detail) {
 }
 
 int runExport(const ExportCommand& command) {
-  if (Status valid = validateExportOptions(command.options); !valid.ok()) return reportFailure(valid.error());
+  const auto options = check(command.options);
+  if (!options) return reportFailure(options.error());
   auto manifest = finishedManifest(command.runDir);
   if (!manifest) return reportFailure(manifest.error());
   auto texture = readApoFile(command.runDir / "scan.apo");
@@ -133,7 +134,7 @@ int runExport(const ExportCommand& command) {
   auto colors = scanColors(command, *manifest, origin);
   if (!colors) return reportFailure(colors.error());
   const ColorField colorField = nearestScanColors(*colors);
-  auto asset = exportGlb(*coarse, field, command.source, command.options, origin, fmt::format("apo {}", APO_VERSION),
+  auto asset = exportGlb(*coarse, field, command.source, *options, origin, fmt::format("apo {}", APO_VERSION),
                          colors->positions.empty() ? nullptr : &colorField);
   if (!asset) return reportFailure(aboutInput(coarsePath, asset.error()));
   if (Status s = writeFileAtomically(command.output, asset->glb); !s.ok()) return reportFailure(s.error());

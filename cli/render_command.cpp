@@ -38,8 +38,9 @@ Status checkTransformMatches(const fs::path& apoPath, const UnitCubeTransform& t
 
 int runRender(RenderCommand command) {
   command.arguments.apply();
-  const RenderOptions& options = command.arguments.options;
-  if (Status valid = validateRenderOptions(options); !valid.ok()) return reportFailure(valid.error());
+  const auto checked = check(command.arguments.options);
+  if (!checked) return reportFailure(checked.error());
+  const RenderOptions& options = **checked;
   auto drawn = readOctreeFile(command.apo);
   if (!drawn) return reportFailure(drawn.error());
   auto coarse = readScan(command.coarse);
@@ -52,8 +53,8 @@ int runRender(RenderCommand command) {
     if (!read) return reportFailure(read.error());
     detail = std::make_unique<Scan>(std::move(read).value());
   }
-  auto views = drawn->apo ? renderViews(detail.get(), *coarse, *drawn->apo, options)
-                          : renderViews(detail.get(), *coarse, *drawn->n3tree, options);
+  auto views = drawn->apo ? renderViews(detail.get(), *coarse, *drawn->apo, *checked)
+                          : renderViews(detail.get(), *coarse, *drawn->n3tree, *checked);
   if (!views) return reportFailure(aboutInput(command.detail.empty() ? command.coarse : command.detail, views.error()));
   RenderFigures figures = measureViews(*views);
   if (drawn->n3tree) {

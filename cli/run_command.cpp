@@ -20,9 +20,10 @@ struct RunCommand {
 
 int runRun(CLI::App& app, const RunCommand& command, bool quiet) {
   if (Status s = applyConfigFile(app, command.arguments.configFile); !s.ok()) return reportFailure(s.error());
-  RunSettings settings{command.input, command.outDir, runOptionsFrom(command.arguments)};
   // Every stage's options, before any stage runs.
-  if (Status valid = validateRunOptions(settings.options); !valid.ok()) return reportFailure(valid.error());
+  auto options = check(runOptionsFrom(command.arguments));
+  if (!options) return reportFailure(options.error());
+  const RunSettings settings{command.input, command.outDir, *options};
   const auto threads = limitThreads(command.arguments.bake.threads);
   const ProgressStyle style = progressStyleForStderr(quiet);
   Progress progress(style, static_cast<int>(kRunStageCount));

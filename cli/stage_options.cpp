@@ -18,6 +18,22 @@ std::string choicesOf(const Map& choices) {
   return "{" + names + "}";
 }
 
+// The name `choices` gives `value`: an enum option's default as --help shows
+// it, read from the options struct, where each default is written once.
+template <class Map>
+std::string nameOf(const Map& choices, const typename Map::mapped_type& value) {
+  const auto named = std::find_if(choices.begin(), choices.end(), [&](const auto& choice) { return choice.second == value; });
+  return named == choices.end() ? std::string() : named->first;
+}
+
+// A byte count as --budget reads it back: 3145728 -> "3MiB".
+std::string byteSizeText(std::uint64_t bytes) {
+  constexpr std::uint64_t kKiB = 1024, kMiB = kKiB * kKiB;
+  if (bytes != 0 && bytes % kMiB == 0) return fmt::format("{}MiB", bytes / kMiB);
+  if (bytes != 0 && bytes % kKiB == 0) return fmt::format("{}KiB", bytes / kKiB);
+  return std::to_string(bytes);
+}
+
 // Unsigned options: CLI11 would read "-5" as 2^64 - 5.
 const CLI::Validator kNotNegative = CLI::NonNegativeNumber.description("");
 
@@ -86,7 +102,7 @@ void addReconstructOptions(CLI::App& app, ReconstructOptions& o) {
                  "auto (Poisson for closed objects, advancing front for open scans), poisson, advancing-front, "
                  "scale-space")
       ->transform(CLI::CheckedTransformer(methods, CLI::ignore_case).description(choicesOf(methods)))
-      ->default_str("auto");
+      ->default_str(nameOf(methods, o.method));
   app.add_option_function<std::uint64_t>(
          "--max-points", [&o](const std::uint64_t& value) { o.maxPoints = value; },
          "Reconstruct from a density-aware subsample above this many points (0: never)")
@@ -128,7 +144,7 @@ void addBakeOptions(CLI::App& app, BakeArguments& arguments) {
                  "Bytes the .apo file may take (3MiB, 500kB, ...; 0: no cap): the octree is refined where a split "
                  "removes the most error per byte until they are spent")
       ->transform(CLI::AsSizeValue(true))
-      ->default_str("3MiB");
+      ->default_str(byteSizeText(o.budget));
   app.add_option("--error", o.error,
                  "L2,1 threshold, the paper's stopping rule (paper: 0.3, 0.1, 0.05; 0: none, the budget alone)")
       ->capture_default_str();
@@ -150,7 +166,7 @@ void addBakeOptions(CLI::App& app, BakeArguments& arguments) {
                  "apo: the APO texture (paper section 4); n3tree: also GPU Gems 2's N^3-tree of the same octree "
                  "(scan.n3t), which the renders then draw")
       ->transform(CLI::CheckedTransformer(layouts, CLI::ignore_case).description(choicesOf(layouts)))
-      ->default_str("apo");
+      ->default_str(nameOf(layouts, o.layout));
   app.add_option("--n3-size", o.n3Size, "N of the N^3-tree: 2 (an octree) or 4 (two levels per grid)")
       ->check(CLI::IsMember({2, 4}))
       ->capture_default_str();

@@ -6,6 +6,7 @@
 // frame a glTF viewer rebuilds from the file.
 #pragma once
 
+#include "core/checked.h"
 #include "core/error.h"
 #include "core/geometry.h"
 #include "format/format.h"
@@ -108,7 +109,8 @@ struct ExportOptions {
   bool detailSizing = true;      // patches sized by detailPatchScales (--patch-size detail), or all at one density (uniform)
 };
 // Usage error naming the option: map size in [16, 16384], gutter in [1, 8].
-Status validateExportOptions(const ExportOptions& options);
+template <>
+Result<Checked<ExportOptions>> check(const ExportOptions& options);
 
 struct ExportReport {
   std::string source;  // "apo" or "detail"
@@ -140,7 +142,7 @@ NormalField apoNormalField(const ApoTexture& apo);
 // coordinates = origin + glTF coordinates); `color`, when given, fills the
 // material's base colour map on the same patches.
 Result<ExportedAsset> exportGlb(const Scan& coarse, const NormalField& field, const std::string& source,
-                                const ExportOptions& options, const std::array<double, 3>& origin,
+                                const Checked<ExportOptions>& options, const std::array<double, 3>& origin,
                                 const std::string& generator, const ColorField* color = nullptr);
 // The manifest's results.export (docs/export.md).
 std::string exportReportJson(const ExportReport& report);

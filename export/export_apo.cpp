@@ -12,11 +12,12 @@
 
 namespace apo {
 
-Status validateExportOptions(const ExportOptions& options) {
+template <>
+Result<Checked<ExportOptions>> check(const ExportOptions& options) {
   if (options.mapSize < 16 || options.mapSize > 16384)
     return usageError("--map-size must be 16 to 16384 texels (got {})", options.mapSize);
   if (options.gutter < 1 || options.gutter > 8) return usageError("--gutter must be 1 to 8 texels (got {})", options.gutter);
-  return okStatus();
+  return Checked<ExportOptions>(options);
 }
 
 namespace {
@@ -45,9 +46,9 @@ NormalField apoNormalField(const ApoTexture& apo) {
 }
 
 Result<ExportedAsset> exportGlb(const Scan& coarse, const NormalField& field, const std::string& source,
-                                const ExportOptions& options, const std::array<double, 3>& origin,
+                                const Checked<ExportOptions>& checkedOptions, const std::array<double, 3>& origin,
                                 const std::string& generator, const ColorField* color) {
-  APO_RETURN_IF_ERROR(validateExportOptions(options));
+  const ExportOptions& options = *checkedOptions;
   if (!coarse.isMesh()) return badInput("m has no triangles to export");
   const Stopwatch stopwatch;
   const std::vector<float> scales = options.detailSizing ? detailPatchScales(coarse, field) : std::vector<float>{};

@@ -42,7 +42,8 @@ std::string orientationMethodName(OrientationMethod method) {
   return method == OrientationMethod::CgalMst ? "mst" : "propagation";
 }
 
-Status validateIngestOptions(const IngestOptions& options) {
+template <>
+Result<Checked<IngestOptions>> check(const IngestOptions& options) {
   if (options.outlierNeighbours < 1) return usageError("--outlier-k must be at least 1, got {}", options.outlierNeighbours);
   if (!(options.outlierStdDevs > 0.0)) return usageError("--outlier-std must be positive, got {}", options.outlierStdDevs);
   if (!(options.voxelSize >= 0.0) || !std::isfinite(options.voxelSize))
@@ -51,7 +52,7 @@ Status validateIngestOptions(const IngestOptions& options) {
     return usageError("--sensor must be three finite numbers");
   if (options.normalNeighbours < 0 || options.normalNeighbours == 1 || options.normalNeighbours == 2)
     return usageError("--normal-k must be 0 (automatic) or at least 3, got {}", options.normalNeighbours);
-  return okStatus();
+  return Checked<IngestOptions>(options);
 }
 
 namespace {
@@ -297,8 +298,8 @@ std::string lastRemoval(const IngestReport& report) {
 
 }  // namespace
 
-Result<IngestResult> ingestScan(const fs::path& path, const IngestOptions& options) {
-  APO_RETURN_IF_ERROR(validateIngestOptions(options));
+Result<IngestResult> ingestScan(const fs::path& path, const Checked<IngestOptions>& checkedOptions) {
+  const IngestOptions& options = *checkedOptions;
   Stopwatch total;
   IngestResult result;
   IngestReport& report = result.report;

@@ -4,6 +4,7 @@
 // names the file, the position in it (line or byte offset) and the problem.
 #pragma once
 
+#include "core/checked.h"
 #include "core/error.h"
 #include "core/geometry.h"
 #include "core/ray_caster.h"
@@ -79,7 +80,8 @@ struct IngestOptions {
 };
 
 // Usage error naming the option when one is out of range.
-Status validateIngestOptions(const IngestOptions& options);
+template <>
+Result<Checked<IngestOptions>> check(const IngestOptions& options);
 
 // What happened to the scan, step by step, for ingest.json.
 struct CleaningStep {
@@ -145,7 +147,7 @@ struct IngestResult {
 // Reads, validates and cleans `path`, and estimates and orients normals when
 // the scan is a point cloud without them. Fails with BadInput when the file is
 // malformed or nothing remains after cleaning.
-Result<IngestResult> ingestScan(const std::filesystem::path& path, const IngestOptions& options);
+Result<IngestResult> ingestScan(const std::filesystem::path& path, const Checked<IngestOptions>& options);
 
 // ingest.json text (pretty-printed, stable key order) for a report.
 std::string ingestReportJson(const IngestReport& report);
@@ -175,7 +177,8 @@ struct SimulateScanOptions {
 };
 
 // Usage error naming the option when one is out of range.
-Status validateSimulateScanOptions(const SimulateScanOptions& options);
+template <>
+Result<Checked<SimulateScanOptions>> check(const SimulateScanOptions& options);
 
 struct SimulatedScan {
   Scan scan;                       // points (and normals when asked)
@@ -189,6 +192,6 @@ struct SimulatedScan {
 // perturbs each range by Gaussian noise and each view by a small rigid motion.
 // `caster` hits the mesh's triangles (makeEmbreeMeshCaster in production).
 // Deterministic for given options.
-Result<SimulatedScan> simulateScan(const Scan& mesh, const RayCaster& caster, const SimulateScanOptions& options);
+Result<SimulatedScan> simulateScan(const Scan& mesh, const RayCaster& caster, const Checked<SimulateScanOptions>& options);
 
 }  // namespace apo

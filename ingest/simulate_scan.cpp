@@ -44,17 +44,19 @@ Eigen::Affine3f misregistration(std::mt19937_64& random, const Vec3f& centre, fl
 
 }  // namespace
 
-Status validateSimulateScanOptions(const SimulateScanOptions& options) {
+template <>
+Result<Checked<SimulateScanOptions>> check(const SimulateScanOptions& options) {
   if (options.views < 1 || options.views > 10000) return usageError("--views must be in [1, 10000], got {}", options.views);
   if (options.raysPerSide < 1 || options.raysPerSide > 8192)
     return usageError("--rays must be in [1, 8192], got {}", options.raysPerSide);
   if (!(options.rangeNoise >= 0.0) || !(options.misregistration >= 0.0))
     return usageError("--noise and --misregistration must be >= 0");
-  return okStatus();
+  return Checked<SimulateScanOptions>(options);
 }
 
-Result<SimulatedScan> simulateScan(const Scan& mesh, const RayCaster& caster, const SimulateScanOptions& options) {
-  APO_RETURN_IF_ERROR(validateSimulateScanOptions(options));
+Result<SimulatedScan> simulateScan(const Scan& mesh, const RayCaster& caster,
+                                   const Checked<SimulateScanOptions>& checkedOptions) {
+  const SimulateScanOptions& options = *checkedOptions;
   if (!mesh.isMesh()) return badInput("simulate-scan needs a triangle mesh, got {} points and no triangles", mesh.points.size());
 
   const Aabb box = boundingBox(mesh.points.positions);

@@ -158,8 +158,8 @@ Result<DetailSearch> detailSearch(const Scan& M, DetailSurface& surface) {
 
 }  // namespace
 
-Result<Bake> bakeApo(const Scan& detail, const Scan& coarse, const BakeOptions& options, const ProgressCallback& onProgress) {
-  APO_RETURN_IF_ERROR(validateBakeOptions(options));
+Result<Bake> bakeApo(const Scan& detail, const Scan& coarse, const Checked<BakeOptions>& options,
+                     const ProgressCallback& onProgress) {
   Stopwatch setup;
   // M as given, or a copy with vertex normals when a mesh has none (a copy
   // of 2M points costs the bake 0.1 s for nothing otherwise), or with its

@@ -16,7 +16,7 @@ namespace apo {
 // Embree discs of its points' spacing (points, which need normals: BadInput
 // otherwise), a FLANN closest-point search built on the first miss, and an
 // Embree BVH of m. Fails as bakeWith does.
-Result<Bake> bakeApo(const Scan& detail, const Scan& coarse, const BakeOptions& options,
+Result<Bake> bakeApo(const Scan& detail, const Scan& coarse, const Checked<BakeOptions>& options,
                      const ProgressCallback& onProgress = {});
 
 // m's own interpolated normal (its file's vertex normals, else area-weighted

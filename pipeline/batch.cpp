@@ -205,7 +205,7 @@ class Batch {
   Batch(const BatchSettings& settings, std::vector<ScanJob> jobs)
       : settings_(settings),
         jobs_(std::move(jobs)),
-        options_(optionsJson(settings.options)),
+        options_(optionsJson(*settings.options)),
         workers_(std::max(1, std::min(settings.jobs, static_cast<int>(jobs_.size())))),
         pool_(settings.scanTimeout) {
     const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
@@ -400,7 +400,6 @@ Result<FolderContents> scansOrError(const BatchSettings& settings) {
 
 Result<BatchSummary> runBatch(const BatchSettings& settings) {
   const Stopwatch stopwatch;
-  APO_RETURN_IF_ERROR(validateRunOptions(settings.options));
   auto lock = OutputLock::take(settings.outDir, settings.shard);
   if (!lock) return lock.error();
   auto found = scansOrError(settings);

@@ -18,7 +18,7 @@ Json initial(const RunSettings& settings) {
   manifest["format_version"] = kManifestFormatVersion;
   manifest["tool"] = tool();
   manifest["input"] = inputOf(settings.input);
-  manifest["options"] = optionsJson(settings.options);
+  manifest["options"] = optionsJson(*settings.options);
   manifest["status"] = "running";
   manifest["error"] = nullptr;
   manifest["stages"] = Json::array();

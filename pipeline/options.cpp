@@ -69,13 +69,15 @@ std::string detailSourceName(DetailSource source) {
   return "auto";
 }
 
-Status validateRunOptions(const RunOptions& options) {
-  APO_RETURN_IF_ERROR(validateIngestOptions(options.ingest));
-  APO_RETURN_IF_ERROR(validateReconstructOptions(options.reconstruct));
-  APO_RETURN_IF_ERROR(validateSimplifyOptions(options.simplify));
-  APO_RETURN_IF_ERROR(validateBakeOptions(options.bake));
-  APO_RETURN_IF_ERROR(validateRenderOptions(options.render));
-  return validateExportOptions(options.exporting);
+template <>
+Result<Checked<RunOptions>> check(const RunOptions& options) {
+  if (auto part = check(options.ingest); !part) return part.error();
+  if (auto part = check(options.reconstruct); !part) return part.error();
+  if (auto part = check(options.simplify); !part) return part.error();
+  if (auto part = check(options.bake); !part) return part.error();
+  if (auto part = check(options.render); !part) return part.error();
+  if (auto part = check(options.exporting); !part) return part.error();
+  return Checked<RunOptions>(options);
 }
 
 nlohmann::ordered_json optionsJson(const RunOptions& options) {

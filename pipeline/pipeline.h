@@ -74,9 +74,11 @@ struct RunOptions {
   bool viewer = true;
 };
 
-// Every stage's options checked, so that a bad value fails before any stage
-// runs: a Usage error naming the option.
-Status validateRunOptions(const RunOptions& options);
+// Every stage's options checked by the stage's own check, so that a bad value
+// fails before any stage runs: a Usage error naming the option. The stages'
+// parts of the checked options are checked too (core/checked.h, partOf).
+template <>
+Result<Checked<RunOptions>> check(const RunOptions& options);
 
 // The manifest's "options": every field of every stage's options by its
 // command-line name without dashes (the names a --config file uses), typed
@@ -86,7 +88,7 @@ nlohmann::ordered_json optionsJson(const RunOptions& options);
 
 struct RunSettings {
   std::filesystem::path input, outDir;
-  RunOptions options;
+  Checked<RunOptions> options;
 };
 
 struct RunOutcome {
@@ -111,7 +113,7 @@ Result<ViewerScene> viewerScene(const Scan& coarse, const ApoTexture& apo, const
 
 // The stages in order, recording each in OUTDIR/manifest.json as it ends (a
 // killed run leaves one that says "running" and where it stopped); outputs
-// are written atomically. The options are validated first.
+// are written atomically.
 RunOutcome runPipeline(const RunSettings& settings, Progress& progress);
 
 // ---- apo batch ---------------------------------------------------------------
@@ -139,7 +141,7 @@ struct BatchSettings {
   int jobs = 1;              // scans at a time; the cores are shared among them
   int threads = 0;           // each worker's threads; 0: the cores divided among the jobs
   double scanTimeout = 0.0;  // seconds; 0: none
-  RunOptions options;        // what each scan runs with (resume compares them)
+  Checked<RunOptions> options;  // what each scan runs with (resume compares them)
   // The same options as `apo run` arguments, passed to every worker as they
   // are (the worker adds the scan, its output folder and its threads).
   std::vector<std::string> workerArguments;
@@ -199,7 +201,7 @@ Result<SlurmJobs> submitSlurm(const SlurmSettings& settings);
 // ---- The stages with their production seams ------------------------------------
 
 // simulateScan (ingest.h) with an Embree BVH of the mesh.
-Result<SimulatedScan> simulateRangeScan(const Scan& mesh, const SimulateScanOptions& options);
+Result<SimulatedScan> simulateRangeScan(const Scan& mesh, const Checked<SimulateScanOptions>& options);
 
 // A scan read as stored (a local frame of its reader's) moved into a run's
 // frame (`origin`: file coordinates = origin + coordinates), in double.

@@ -54,7 +54,7 @@ class Run {
     APO_RETURN_IF_ERROR(stage(kSimplify, [&] { return simplify(); }));
     APO_RETURN_IF_ERROR(stage(kBake, [&] { return bake(); }));
     APO_RETURN_IF_ERROR(stage(kRender, [&] { return render(); }));
-    if (settings_.options.exporting.enabled)
+    if (settings_.options->exporting.enabled)
       APO_RETURN_IF_ERROR(stage(kExport, [&] { return exportAsset(); }));
     else
       skip(kExport);
@@ -109,7 +109,7 @@ class Run {
     std::error_code ignored;
     manifest_["input"]["sha256"] = *digest;
     manifest_["input"]["bytes"] = fs::file_size(settings_.input, ignored);
-    auto ingested = ingestScan(settings_.input, settings_.options.ingest);
+    auto ingested = ingestScan(settings_.input, partOf(settings_.options, &RunOptions::ingest));
     if (!ingested) return ingested.error();
     data_.scan = std::move(ingested->scan);
     manifest_["results"]["ingest"] = Json::parse(ingestReportJson(ingested->report));
@@ -118,7 +118,7 @@ class Run {
     // renders stay local, the .apo header holding the origin).
     const auto& o = data_.scan.origin;
     manifest_["georeference"] = {{"origin", {o[0], o[1], o[2]}},
-                                 {"meshes", settings_.options.keepGeoreference && data_.scan.isGeoreferenced() ? "world" : "local"}};
+                                 {"meshes", settings_.options->keepGeoreference && data_.scan.isGeoreferenced() ? "world" : "local"}};
     return okStatus();
   }
 
@@ -128,20 +128,20 @@ class Run {
   }
 
   Status reconstruct() {
-    auto reconstruction = reconstructScan(data_.scan, settings_.options.reconstruct, reportFraction());
+    auto reconstruction = reconstructScan(data_.scan, partOf(settings_.options, &RunOptions::reconstruct), reportFraction());
     if (!reconstruction) return aboutInput(settings_.input, reconstruction.error());
     data_.dense = std::move(reconstruction->mesh);
-    APO_RETURN_IF_ERROR(writePly(settings_.outDir / "M.ply", data_.dense, settings_.options.keepGeoreference));
+    APO_RETURN_IF_ERROR(writePly(settings_.outDir / "M.ply", data_.dense, settings_.options->keepGeoreference));
     addFile("M", "M.ply");
     manifest_["results"]["reconstruct"] = Json::parse(reconstructReportJson(reconstruction->report));
     return okStatus();
   }
 
   Status simplify() {
-    auto simplified = simplifyMesh(data_.dense, settings_.options.simplify, reportFraction());
+    auto simplified = simplifyMesh(data_.dense, partOf(settings_.options, &RunOptions::simplify), reportFraction());
     if (!simplified) return aboutInput(settings_.input, simplified.error());
     data_.coarse = std::move(simplified->mesh);
-    APO_RETURN_IF_ERROR(writePly(settings_.outDir / "m.ply", data_.coarse, settings_.options.keepGeoreference));
+    APO_RETURN_IF_ERROR(writePly(settings_.outDir / "m.ply", data_.coarse, settings_.options->keepGeoreference));
     addFile("m", "m.ply");
     manifest_["results"]["simplify"] = Json::parse(simplifyReportJson(simplified->report));
     return okStatus();
@@ -169,7 +169,7 @@ class Run {
   }
 
   Result<Bake> bakeFrom(const Scan& detail, double from, double to) {
-    auto baked = bakeApo(detail, data_.coarse, settings_.options.bake,
+    auto baked = bakeApo(detail, data_.coarse, partOf(settings_.options, &RunOptions::bake),
                          [&](double fraction) { progress_.setFraction(from + (to - from) * fraction); });
     if (!baked) return aboutInput(settings_.input, baked.error());
     return baked;
@@ -207,7 +207,7 @@ class Run {
   // Bakes from what --detail-source says (deciding it for auto); records
   // the choice in results.bake.detail_source.
   Result<Bake> bakeChosen(Json& choice) {
-    const DetailSource option = settings_.options.detailSource;
+    const DetailSource option = settings_.options->detailSource;
     choice = {{"option", detailSourceName(option)}};
     if (option == DetailSource::Points) {
       choice["chosen"] = "points";
@@ -248,18 +248,19 @@ class Run {
   Status render() {
     progress_.setFraction(0.0);
     const auto onViewDone = [&](int done, int total) { progress_.setFraction(static_cast<double>(done) / total); };
-    auto views = data_.n3tree ? renderViews(data_.reference, data_.coarse, *data_.n3tree, settings_.options.render, onViewDone)
-                              : renderViews(data_.reference, data_.coarse, data_.texture, settings_.options.render, onViewDone);
+    const auto options = partOf(settings_.options, &RunOptions::render);
+    auto views = data_.n3tree ? renderViews(data_.reference, data_.coarse, *data_.n3tree, options, onViewDone)
+                              : renderViews(data_.reference, data_.coarse, data_.texture, options, onViewDone);
     if (!views) return aboutInput(settings_.input, views.error());
     RenderFigures figures = measureViews(*views);
     if (data_.n3tree) {
       figures.layout = "n3tree";
       figures.n3Size = data_.n3tree->n;
     }
-    APO_RETURN_IF_ERROR(writeRenderOutputs(settings_.outDir / kRenderFolder, *views, figures, settings_.options.render));
+    APO_RETURN_IF_ERROR(writeRenderOutputs(settings_.outDir / kRenderFolder, *views, figures, settings_.options->render));
     std::vector<Camera>& cameras = data_.cameras;
     for (const ViewImages& view : *views) cameras.push_back(view.camera);
-    manifest_["results"]["render"] = Json::parse(renderReportJson(figures, settings_.options.render, cameras));
+    manifest_["results"]["render"] = Json::parse(renderReportJson(figures, settings_.options->render, cameras));
     // What the views drew as the reference: what the kept APO was baked from.
     manifest_["results"]["render"]["reference"] = data_.reference == &data_.dense ? "M" : "points";
     // A point scan's M is a reconstruction: the asset is judged against the
@@ -287,13 +288,13 @@ class Run {
   // With the scan's colours, read again from its file as `apo export` does.
   Status exportAsset() {
     ScanColors colors;
-    if (settings_.options.exporting.color && data_.scan.points.hasColors()) {
+    if (settings_.options->exporting.color && data_.scan.points.hasColors()) {
       auto read = readScanColors(settings_.input, data_.scan.origin);
       if (!read) return aboutInput(settings_.input, read.error());
       colors = std::move(*read);
     }
     const ColorField colorField = nearestScanColors(colors);
-    auto asset = exportGlb(data_.coarse, apoNormalField(data_.texture), "apo", settings_.options.exporting,
+    auto asset = exportGlb(data_.coarse, apoNormalField(data_.texture), "apo", partOf(settings_.options, &RunOptions::exporting),
                            data_.scan.origin, fmt::format("apo {}", manifest_["tool"]["version"].get<std::string>()),
                            colors.positions.empty() ? nullptr : &colorField);
     if (!asset) return aboutInput(settings_.input, asset.error());
@@ -304,7 +305,7 @@ class Run {
   }
 
   Status report() {
-    if (settings_.options.viewer) APO_RETURN_IF_ERROR(viewer());
+    if (settings_.options->viewer) APO_RETURN_IF_ERROR(viewer());
     addFile("report", "report.html");
     // The report shows the run as it will be recorded: every stage done.
     Json finished = manifest_;
@@ -317,7 +318,7 @@ class Run {
   // "The viewer"); its size and what it shows as M go in results.viewer.
   Status viewer() {
     const Stopwatch making;
-    auto scene = viewerScene(data_.coarse, data_.texture, data_.reference, data_.cameras, settings_.options.render);
+    auto scene = viewerScene(data_.coarse, data_.texture, data_.reference, data_.cameras, settings_.options->render);
     if (!scene) return aboutInput(settings_.input, scene.error());
     std::vector<std::string> images;
     for (std::size_t i = 0; i < data_.cameras.size(); ++i) images.push_back(fmt::format("{}/view{:02d}_apo.png", kRenderFolder, i));
@@ -340,8 +341,6 @@ class Run {
 }  // namespace
 
 RunOutcome runPipeline(const RunSettings& settings, Progress& progress) {
-  // Bad options fail before anything is written.
-  if (Status valid = validateRunOptions(settings.options); !valid.ok()) return {std::move(valid), manifest::initial(settings)};
   Run run(settings, progress);
   Status status = run.execute();
   if (!status.ok()) run.recordFailure(status.error());

@@ -4,8 +4,7 @@
 
 namespace apo {
 
-Result<SimulatedScan> simulateRangeScan(const Scan& mesh, const SimulateScanOptions& options) {
-  APO_RETURN_IF_ERROR(validateSimulateScanOptions(options));
+Result<SimulatedScan> simulateRangeScan(const Scan& mesh, const Checked<SimulateScanOptions>& options) {
   auto caster = makeEmbreeMeshCaster(mesh);
   if (!caster) return caster.error();
   return simulateScan(mesh, **caster, options);

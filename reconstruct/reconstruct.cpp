@@ -27,7 +27,8 @@ constexpr double kPlanarThickness = 1e-6;
 
 }  // namespace
 
-Status validateReconstructOptions(const ReconstructOptions& o) {
+template <>
+Result<Checked<ReconstructOptions>> check(const ReconstructOptions& o) {
   if (!(o.trim > 0.0)) return usageError("--trim must be positive, got {}", o.trim);
   if (!(o.radiusRatioBound > 0.0)) return usageError("--radius-ratio must be positive, got {}", o.radiusRatioBound);
   if (!(o.minComponent >= 0.0 && o.minComponent < 1.0))
@@ -38,7 +39,7 @@ Status validateReconstructOptions(const ReconstructOptions& o) {
   if (!(o.poissonRadius > 0.0)) return usageError("--poisson-radius must be positive, got {}", o.poissonRadius);
   if (!(o.poissonSpacing >= 0.0) || !(o.scaleSpaceScale >= 0.0))
     return usageError("--poisson-distance and --scale must be >= 0 (0: derived from the data)");
-  return okStatus();
+  return Checked<ReconstructOptions>(o);
 }
 
 namespace {
@@ -265,9 +266,9 @@ std::string methodName(ReconstructionMethod method) {
 // Rough shares of a reconstruction's time, for progress only.
 constexpr double kMethodStart = 0.1, kMethodEnd = 0.8, kCleanEnd = 0.9;
 
-Result<Reconstruction> reconstructSurface(const PointSet& input, const ReconstructOptions& options,
+Result<Reconstruction> reconstructSurface(const PointSet& input, const Checked<ReconstructOptions>& checkedOptions,
                                           const ProgressCallback& onProgress) {
-  APO_RETURN_IF_ERROR(validateReconstructOptions(options));
+  const ReconstructOptions& options = *checkedOptions;
   APO_RETURN_IF_ERROR(validatePoints(input));
   Stopwatch watch;
   Reconstruction result;
@@ -336,14 +337,13 @@ Result<Reconstruction> reconstructSurface(const PointSet& input, const Reconstru
   return result;
 }
 
-Result<Reconstruction> reconstructScan(const Scan& scan, const ReconstructOptions& options,
+Result<Reconstruction> reconstructScan(const Scan& scan, const Checked<ReconstructOptions>& options,
                                        const ProgressCallback& onProgress) {
   if (!scan.isMesh()) {
     auto reconstruction = reconstructSurface(scan.points, options, onProgress);
     if (reconstruction) reconstruction->mesh.origin = scan.origin;  // M stays in the scan's frame
     return reconstruction;
   }
-  APO_RETURN_IF_ERROR(validateReconstructOptions(options));
   Reconstruction adopted;
   adopted.mesh = scan;
   addVertexNormalsIfMissing(adopted.mesh);

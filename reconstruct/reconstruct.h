@@ -5,6 +5,7 @@
 // adapters/flann), which return every failure as an Error.
 #pragma once
 
+#include "core/checked.h"
 #include "core/error.h"
 #include "core/geometry.h"
 #include "core/timing.h"
@@ -93,19 +94,20 @@ inline std::uint64_t defaultMaxPoints(ReconstructionMethod method) {
 }
 
 // Usage error naming the option when one is out of range.
-Status validateReconstructOptions(const ReconstructOptions& options);
+template <>
+Result<Checked<ReconstructOptions>> check(const ReconstructOptions& options);
 
 // Reconstructs M from points with oriented normals. BadInput when there are
 // too few points, no normals, or the points are all on a plane (Poisson), and
-// when CGAL produces no surface; Usage for out-of-range options.
+// when CGAL produces no surface.
 // `onProgress` hears the fraction done by phase (subsample and spacing, the
 // CGAL method, clean-up and measures): CGAL's methods report nothing inside.
-Result<Reconstruction> reconstructSurface(const PointSet& points, const ReconstructOptions& options,
+Result<Reconstruction> reconstructSurface(const PointSet& points, const Checked<ReconstructOptions>& options,
                                           const ProgressCallback& onProgress = {});
 
 // M for a scan: a mesh is adopted as it is (method "input-mesh", figures
 // measured), a point cloud is reconstructed.
-Result<Reconstruction> reconstructScan(const Scan& scan, const ReconstructOptions& options,
+Result<Reconstruction> reconstructScan(const Scan& scan, const Checked<ReconstructOptions>& options,
                                        const ProgressCallback& onProgress = {});
 
 enum class SimplifyPolicy { GarlandHeckbert, LindstromTurk };
@@ -126,7 +128,8 @@ struct SimplifyOptions {
 inline constexpr std::uint64_t kQuickCollapseFaces = 100000;
 
 // Usage error naming the option when one is out of range.
-Status validateSimplifyOptions(const SimplifyOptions& options);
+template <>
+Result<Checked<SimplifyOptions>> check(const SimplifyOptions& options);
 
 struct SimplifyReport {
   std::string policy;
@@ -155,7 +158,7 @@ struct Simplification {
 // Edge-collapse simplification of a triangle mesh to the target face count
 // (within 1%), borders kept. Deterministic. `onProgress` hears the fraction
 // done: the collapses by faces removed, then the distance measures.
-Result<Simplification> simplifyMesh(const Scan& mesh, const SimplifyOptions& options,
+Result<Simplification> simplifyMesh(const Scan& mesh, const Checked<SimplifyOptions>& options,
                                     const ProgressCallback& onProgress = {});
 
 // A quick preview of a large mesh (the report's viewer): meshoptimizer's

@@ -222,12 +222,13 @@ Status makeCoarse(const Scan& mesh, const SimplifyOptions& options, const Progre
 
 }  // namespace
 
-Status validateSimplifyOptions(const SimplifyOptions& options) {
+template <>
+Result<Checked<SimplifyOptions>> check(const SimplifyOptions& options) {
   if (options.ratio != 0.0 && !(options.ratio > 0.0 && options.ratio <= 1.0))
     return usageError("--ratio must be in (0, 1], got {}", options.ratio);
   if (options.ratio == 0.0 && options.targetFaces < kMinTargetFaces)
     return usageError("--faces must be at least {}, got {}", kMinTargetFaces, options.targetFaces);
-  return okStatus();
+  return Checked<SimplifyOptions>(options);
 }
 
 std::string policyName(SimplifyPolicy policy) {
@@ -238,8 +239,9 @@ std::string policyName(SimplifyPolicy policy) {
   return "unknown";
 }
 
-Result<Simplification> simplifyMesh(const Scan& mesh, const SimplifyOptions& options, const ProgressCallback& onProgress) {
-  APO_RETURN_IF_ERROR(validateSimplifyOptions(options));
+Result<Simplification> simplifyMesh(const Scan& mesh, const Checked<SimplifyOptions>& checkedOptions,
+                                    const ProgressCallback& onProgress) {
+  const SimplifyOptions& options = *checkedOptions;
   if (!mesh.isMesh()) return badInput("simplification needs a triangle mesh, got {} points and no triangles", mesh.points.size());
   const std::uint64_t target = targetFaceCount(mesh, options);
   Stopwatch watch;

@@ -542,7 +542,8 @@ std::vector<Camera> standardViews(const Aabb& box, int count, const Vec3f& scann
   return cameras;
 }
 
-Status validateRenderOptions(const RenderOptions& options) {
+template <>
+Result<Checked<RenderOptions>> check(const RenderOptions& options) {
   if (options.size < 1 || options.size > kLargestImage)
     return usageError("--size must be in [1, {}], got {}", kLargestImage, options.size);
   if (options.views < 1 || options.views > kStandardViewCount)
@@ -551,14 +552,13 @@ Status validateRenderOptions(const RenderOptions& options) {
     return usageError("--frames must be in [0, {}], got {}", kMostTimedFrames, options.timedFrames);
   if (!(options.lodThreshold > 0.0f) || options.lodThreshold > 1000.0f)
     return usageError("--lod-threshold must be in (0, 1000] pixels, got {}", options.lodThreshold);
-  return okStatus();
+  return Checked<RenderOptions>(options);
 }
 
 namespace {
 
 Result<std::vector<ViewImages>> renderViewsWith(const Scan* detail, const Scan& coarse, const MakeLayout& makeLayout,
                                                 const RenderOptions& options, const std::function<void(int, int)>& onViewDone) {
-  APO_RETURN_IF_ERROR(validateRenderOptions(options));
   auto scene = makeApoScene(coarse, makeLayout, options.size);
   if (!scene) return scene.error();
   std::optional<GpuGeometry> detailGeometry;
@@ -659,14 +659,14 @@ std::uint32_t expectedFetches(const Lookup& lookup, int completeDepth) {
 }  // namespace
 
 Result<std::vector<ViewImages>> renderViews(const Scan* detail, const Scan& coarse, const ApoTexture& apo,
-                                            const RenderOptions& options, const std::function<void(int, int)>& onViewDone) {
-  return renderViewsWith(detail, coarse, [&](const gl::Context& context) { return apoLayout(context, apo); }, options, onViewDone);
+                                            const Checked<RenderOptions>& options, const std::function<void(int, int)>& onViewDone) {
+  return renderViewsWith(detail, coarse, [&](const gl::Context& context) { return apoLayout(context, apo); }, *options, onViewDone);
 }
 
 Result<std::vector<ViewImages>> renderViews(const Scan* detail, const Scan& coarse, const N3Tree& tree,
-                                            const RenderOptions& options, const std::function<void(int, int)>& onViewDone) {
-  return renderViewsWith(detail, coarse, [&](const gl::Context& context) { return n3TreeLayout(context, tree); }, options,
-                         onViewDone);
+                                            const Checked<RenderOptions>& options, const std::function<void(int, int)>& onViewDone) {
+  return renderViewsWith(detail, coarse, [&](const gl::Context& context) { return n3TreeLayout(context, tree); },
+                         *options, onViewDone);
 }
 
 Result<WalkAgreement> compareWalkWithCpu(const Scan& coarse, const ApoTexture& apo, int size, int views) {

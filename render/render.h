@@ -5,6 +5,7 @@
 #pragma once
 
 #include "format/format.h"
+#include "core/checked.h"
 #include "core/error.h"
 #include "core/geometry.h"
 #include "core/ray_caster.h"
@@ -179,7 +180,8 @@ struct RenderOptions {
 // (llvmpipe's largest render target; a smaller GPU limit is refused when the
 // context is made), views in [1, 14], timed frames in [0, 1000], the LOD
 // threshold in (0, 1000] pixels.
-Status validateRenderOptions(const RenderOptions& options);
+template <>
+Result<Checked<RenderOptions>> check(const RenderOptions& options);
 
 // Texel reads per fragment of the APO pass, over the pixels m covers.
 struct FetchCounts {
@@ -219,13 +221,13 @@ struct ViewImages {
 // points without normals are BadInput.
 // `onViewDone(done, total)`, when given, is called after each view.
 Result<std::vector<ViewImages>> renderViews(const Scan* detail, const Scan& coarse, const ApoTexture& apo,
-                                            const RenderOptions& options,
+                                            const Checked<RenderOptions>& options,
                                             const std::function<void(int, int)>& onViewDone = {});
 // The same passes with m drawn through the same octree stored as an
 // N^3-tree (format.h N3Tree): its walk down the indirection pool, its LOD
 // pool for mip-mapping, its filtering (docs/render.md, "Layouts").
 Result<std::vector<ViewImages>> renderViews(const Scan* detail, const Scan& coarse, const N3Tree& tree,
-                                            const RenderOptions& options,
+                                            const Checked<RenderOptions>& options,
                                             const std::function<void(int, int)>& onViewDone = {});
 
 // ---- The report's viewer (WebGL2) -------------------------------------------

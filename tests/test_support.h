@@ -33,6 +33,27 @@ CommandResult runApo(const std::string& arguments);
 
 }  // namespace apo::test
 
+#include "core/checked.h"
+
+#include <cstdio>
+#include <cstdlib>
+
+namespace apo::test {
+
+// Options a test holds to be in range, as a stage takes them; the test stops
+// at once, naming the option, when they are not (the checks are tested apart).
+template <class Options>
+Checked<Options> checked(const Options& options) {
+  auto accepted = check(options);
+  if (!accepted) {
+    std::fprintf(stderr, "test options rejected: %s\n", accepted.error().message.c_str());
+    std::abort();
+  }
+  return *accepted;
+}
+
+}  // namespace apo::test
+
 #include "core/closest_point.h"
 #include "core/geometry.h"
 #include "core/ray_caster.h"

@@ -73,7 +73,7 @@ class BumpySphereBake : public ::testing::Test {
     shape_ = new test::BumpySphere();
     coarse_ = new Scan(test::makeIcosphere(3));  // 1,280 faces
     detail_ = new Scan(shape_->mesh(6));          // 81,920 faces
-    auto bake = bakeApo(*detail_, *coarse_, testOptions());
+    auto bake = bakeApo(*detail_, *coarse_, test::checked(testOptions()));
     ASSERT_TRUE(bake.ok()) << bake.error().message;
     bake_ = new Bake(std::move(bake).value());
   }
@@ -168,11 +168,11 @@ TEST_F(BumpySphereBake, AtTheBytesOfThePapersThresholdTheBudgetsApoIsCloserToM) 
   BakeOptions paper = testOptions();
   paper.budget = 0;
   paper.error = 0.01;
-  auto byThreshold = bakeApo(*detail_, *coarse_, paper);
+  auto byThreshold = bakeApo(*detail_, *coarse_, test::checked(paper));
   ASSERT_TRUE(byThreshold.ok()) << byThreshold.error().message;
   BakeOptions budgeted = testOptions();
   budgeted.budget = apoFileBytes(byThreshold->texture.usedTexels(), false);
-  auto byBudget = bakeApo(*detail_, *coarse_, budgeted);
+  auto byBudget = bakeApo(*detail_, *coarse_, test::checked(budgeted));
   ASSERT_TRUE(byBudget.ok()) << byBudget.error().message;
   EXPECT_EQ(byBudget->report.refinement.stoppedBy, "budget");
   EXPECT_LE(apoFileBytes(byBudget->texture.usedTexels(), false), budgeted.budget);
@@ -245,10 +245,10 @@ TEST(ThinShellBake, TwoSidedLeavesFollowBothSheetsWhereOneNormalCannot) {
   options.coarseDepth = 4;
   options.maxDepth = 7;  // cells of 1/128: more than twice the sheets' distance
   options.budget = 1u << 20;
-  auto twoSided = bakeApo(detail, coarse, options);
+  auto twoSided = bakeApo(detail, coarse, test::checked(options));
   ASSERT_TRUE(twoSided.ok()) << twoSided.error().message;
   options.twoSidedLeaves = false;
-  auto oneSided = bakeApo(detail, coarse, options);
+  auto oneSided = bakeApo(detail, coarse, test::checked(options));
   ASSERT_TRUE(oneSided.ok()) << oneSided.error().message;
   EXPECT_GT(twoSided->report.refinement.twoSidedLeaves, 1000u);
   EXPECT_EQ(twoSided->texture.twoSidedLeaves, twoSided->report.refinement.twoSidedLeaves);
@@ -293,7 +293,7 @@ TEST(ThinShellBake, InternalNodesAboveBothSheetsShowMsNormal) {
   options.coarseDepth = 4;
   options.maxDepth = 7;
   options.budget = 256u << 10;
-  auto bake = bakeApo(detail, coarse, options);
+  auto bake = bakeApo(detail, coarse, test::checked(options));
   ASSERT_TRUE(bake.ok()) << bake.error().message;
   EXPECT_GT(bake->report.refinement.internalNodesShowingCoarse, 100u);
   EXPECT_TRUE(bake->texture.coarseAtInternalNodes);
@@ -332,7 +332,7 @@ TEST(Bake, SameBytesWithOneOrTwoThreads) {
   const Scan detail = shape.mesh(5);
   const auto bakeWithThreads = [&](int threads) {
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
-    auto bake = bakeApo(detail, coarse, testOptions());
+    auto bake = bakeApo(detail, coarse, test::checked(testOptions()));
     EXPECT_TRUE(bake.ok());
     return bake->texture.texels;
   };
@@ -348,8 +348,8 @@ TEST(Bake, TrianglesInNoOrderAreTakenInMortonOrderForTheSameNormals) {
   const Scan ordered = shape.mesh(7);  // 327,680 faces, in subdivision order
   Scan shuffled = ordered;
   std::shuffle(shuffled.triangles.begin(), shuffled.triangles.end(), std::mt19937(7));
-  auto fromOrdered = bakeApo(ordered, coarse, testOptions());
-  auto fromShuffled = bakeApo(shuffled, coarse, testOptions());
+  auto fromOrdered = bakeApo(ordered, coarse, test::checked(testOptions()));
+  auto fromShuffled = bakeApo(shuffled, coarse, test::checked(testOptions()));
   ASSERT_TRUE(fromOrdered.ok() && fromShuffled.ok());
   EXPECT_FALSE(fromOrdered->report.detailFacesReordered);
   EXPECT_LT(fromOrdered->report.detailFaceOrderSpread, 10.0);
@@ -375,16 +375,16 @@ TEST(Bake, PointsFromAScanGiveNormalsCloseToTheMeshBake) {
   SimulateScanOptions scanner;
   scanner.views = 10;
   scanner.raysPerSide = 300;
-  auto scanned = simulateRangeScan(dense, scanner);
+  auto scanned = simulateRangeScan(dense, test::checked(scanner));
   ASSERT_TRUE(scanned.ok());
   const auto path = test::freshTempDir() / "bumpy.ply";
   ASSERT_TRUE(writePly(path, scanned->scan).ok());
-  auto ingested = ingestScan(path, IngestOptions{});
+  auto ingested = ingestScan(path, test::checked(IngestOptions{}));
   ASSERT_TRUE(ingested.ok()) << ingested.error().message;
-  auto fromPoints = bakeApo(ingested->scan, coarse, testOptions());
+  auto fromPoints = bakeApo(ingested->scan, coarse, test::checked(testOptions()));
   ASSERT_TRUE(fromPoints.ok()) << fromPoints.error().message;
   EXPECT_EQ(fromPoints->report.detailKind, "points");
-  auto fromMesh = bakeApo(dense, coarse, testOptions());
+  auto fromMesh = bakeApo(dense, coarse, test::checked(testOptions()));
   ASSERT_TRUE(fromMesh.ok());
   double difference = 0.0, truthError = 0.0;
   const auto points = pointsOnMesh(coarse, 20000, 5);
@@ -408,23 +408,23 @@ TEST(Bake, BadInputsAndOptionsAreRefused) {
   const Scan coarse = test::makeIcosphere(1);
   Scan cloud;
   cloud.points.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
-  auto noTriangles = bakeApo(coarse, cloud, BakeOptions{});
+  auto noTriangles = bakeApo(coarse, cloud, test::checked(BakeOptions{}));
   ASSERT_FALSE(noTriangles.ok());
   EXPECT_EQ(noTriangles.error().kind, ErrorKind::BadInput);
   EXPECT_THAT(noTriangles.error().message, HasSubstr("coarse mesh"));
-  auto noNormals = bakeApo(cloud, coarse, BakeOptions{});
+  auto noNormals = bakeApo(cloud, coarse, test::checked(BakeOptions{}));
   ASSERT_FALSE(noNormals.ok());
   EXPECT_THAT(noNormals.error().message, HasSubstr("normals"));
   BakeOptions options;
   options.maxDepth = 2;
   options.coarseDepth = 3;
-  EXPECT_EQ(bakeApo(coarse, coarse, options).error().kind, ErrorKind::Usage);
+  EXPECT_EQ(check(options).error().kind, ErrorKind::Usage);
   options = {};
   options.samples = 0;
-  EXPECT_EQ(bakeApo(coarse, coarse, options).error().kind, ErrorKind::Usage);
+  EXPECT_EQ(check(options).error().kind, ErrorKind::Usage);
   options = {};
   options.completeDepth = 7;
-  EXPECT_EQ(bakeApo(coarse, coarse, options).error().kind, ErrorKind::Usage);
+  EXPECT_EQ(check(options).error().kind, ErrorKind::Usage);
 }
 
 // A closest-point seam that cannot answer (FLANN failed to build, say).
@@ -448,7 +448,7 @@ TEST(Bake, AClosestPointSearchThatFailsIsAnInternalErrorNotAnException) {
   BakeOptions options;
   options.coarseDepth = 3;
   options.maxDepth = 4;
-  auto bake = bakeWith(surface, {&coarse, &coarseCaster}, options);
+  auto bake = bakeWith(surface, {&coarse, &coarseCaster}, test::checked(options));
   ASSERT_FALSE(bake.ok());
   EXPECT_EQ(bake.error().kind, ErrorKind::Internal);
   EXPECT_THAT(bake.error().message, HasSubstr("closest-point search over M failed"));

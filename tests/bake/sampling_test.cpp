@@ -48,7 +48,7 @@ TEST(Sampling, EmbreeAndFlannAgreeWithBruteForceOnAMesh) {
   const test::BumpySphere shape;
   const Scan coarse = test::makeIcosphere(2);
   const Scan detail = shape.mesh(4);
-  auto production = bakeApo(detail, coarse, smallOptions());
+  auto production = bakeApo(detail, coarse, test::checked(smallOptions()));
   ASSERT_TRUE(production.ok()) << production.error().message;
   const test::BruteForceCaster caster(detail);
   const test::BruteForceClosestPoint closest(detail);
@@ -57,7 +57,7 @@ TEST(Sampling, EmbreeAndFlannAgreeWithBruteForceOnAMesh) {
   surface.caster = &caster;
   surface.closest = &closest;
   const test::BruteForceCaster coarseCaster(coarse);
-  auto reference = bakeWith(surface, {&coarse, &coarseCaster}, smallOptions());
+  auto reference = bakeWith(surface, {&coarse, &coarseCaster}, test::checked(smallOptions()));
   ASSERT_TRUE(reference.ok()) << reference.error().message;
   EXPECT_EQ(production->report.hits, reference->report.hits);
   EXPECT_EQ(production->report.fallbacks, reference->report.fallbacks);
@@ -70,7 +70,7 @@ TEST(Sampling, EmbreeDiscsAgreeWithBruteForceOnPoints) {
   const Scan coarse = test::makeIcosphere(2);
   Scan points = shape.mesh(4);
   points.triangles.clear();  // the vertices, with their exact normals
-  auto production = bakeApo(points, coarse, smallOptions());
+  auto production = bakeApo(points, coarse, test::checked(smallOptions()));
   ASSERT_TRUE(production.ok()) << production.error().message;
   const std::vector<float> radii = discRadii(points.points).value();
   const test::BruteForceCaster caster(points, radii);
@@ -81,7 +81,7 @@ TEST(Sampling, EmbreeDiscsAgreeWithBruteForceOnPoints) {
   surface.closest = &closest;
   for (const float r : radii) surface.pointAreas.push_back(r * r);
   const test::BruteForceCaster coarseCaster(coarse);
-  auto reference = bakeWith(surface, {&coarse, &coarseCaster}, smallOptions());
+  auto reference = bakeWith(surface, {&coarse, &coarseCaster}, test::checked(smallOptions()));
   ASSERT_TRUE(reference.ok()) << reference.error().message;
   EXPECT_EQ(production->report.hits, reference->report.hits);
   // Neighbouring discs overlap: where two are hit at nearly the same t, float
@@ -120,7 +120,7 @@ TEST(Sampling, PointAreasGivenLaterBakeTheSameAndTheirFailureFailsTheBake) {
     else surface->pointAreas = areas;
     return surface;
   };
-  auto given = bakeWith(*surfaceWith(nullptr), {&coarse, &coarseCaster}, smallOptions());
+  auto given = bakeWith(*surfaceWith(nullptr), {&coarse, &coarseCaster}, test::checked(smallOptions()));
   ASSERT_TRUE(given.ok()) << given.error().message;
   int waits = 0;
   auto late = bakeWith(*surfaceWith([&](DetailSurface& s) {
@@ -128,7 +128,7 @@ TEST(Sampling, PointAreasGivenLaterBakeTheSameAndTheirFailureFailsTheBake) {
                          s.pointAreas = areas;
                          return okStatus();
                        }),
-                       {&coarse, &coarseCaster}, smallOptions());
+                       {&coarse, &coarseCaster}, test::checked(smallOptions()));
   ASSERT_TRUE(late.ok()) << late.error().message;
   EXPECT_EQ(waits, 1);
   EXPECT_EQ(late->texture.texels, given->texture.texels);
@@ -138,19 +138,19 @@ TEST(Sampling, PointAreasGivenLaterBakeTheSameAndTheirFailureFailsTheBake) {
                            for (std::size_t i = 0; i < s.pointAreas.size() / 2; ++i) s.pointAreas[i] *= 100.0f;
                            return okStatus();
                          }),
-                         {&coarse, &coarseCaster}, smallOptions());
+                         {&coarse, &coarseCaster}, test::checked(smallOptions()));
   ASSERT_TRUE(reweighted.ok()) << reweighted.error().message;
   EXPECT_NE(reweighted->texture.texels, given->texture.texels);
 
   auto failed = bakeWith(*surfaceWith([](DetailSurface&) -> Status { return internalError("the k-d tree failed"); }),
-                         {&coarse, &coarseCaster}, smallOptions());
+                         {&coarse, &coarseCaster}, test::checked(smallOptions()));
   ASSERT_FALSE(failed.ok());
   EXPECT_EQ(failed.error().message, "the k-d tree failed");
   auto tooFew = bakeWith(*surfaceWith([&](DetailSurface& s) {
                            s.pointAreas.assign(areas.size() - 1, 1.0f);
                            return okStatus();
                          }),
-                         {&coarse, &coarseCaster}, smallOptions());
+                         {&coarse, &coarseCaster}, test::checked(smallOptions()));
   ASSERT_FALSE(tooFew.ok());
   EXPECT_NE(tooFew.error().message.find("point areas for"), std::string::npos) << tooFew.error().message;
 }
@@ -223,10 +223,10 @@ TEST(Sampling, SeveralOriginsPerTriangleFollowTheFieldBetterThanOne) {
   options.coarseDepth = 2;
   options.maxDepth = 2;  // large cells, one large triangle: the case K > 1 is for
   options.samples = 1;
-  auto paper = bakeApo(field.detail, field.coarse, options);
+  auto paper = bakeApo(field.detail, field.coarse, test::checked(options));
   ASSERT_TRUE(paper.ok()) << paper.error().message;
   options.samples = 16;
-  auto stratified = bakeApo(field.detail, field.coarse, options);
+  auto stratified = bakeApo(field.detail, field.coarse, test::checked(options));
   ASSERT_TRUE(stratified.ok());
   const double paperError = meanErrorAgainstIntegratedField(*paper, field);
   const double stratifiedError = meanErrorAgainstIntegratedField(*stratified, field);

@@ -40,6 +40,26 @@ std::string bakeArguments(const Inputs& in, const fs::path& out, const std::stri
                      in.coarse.string(), out.string(), extra);
 }
 
+// Each default is written once, in the options struct: --help reads it there.
+TEST(BakeCommand, HelpShowsTheOptionStructsDefaults) {
+  const auto bake = apo("bake --help");
+  ASSERT_EQ(bake.exitCode, 0) << bake.output;
+  ASSERT_EQ(BakeOptions{}.budget, std::uint64_t{3} << 20);
+  EXPECT_THAT(bake.output, HasSubstr("...]=3MiB\n"));
+  EXPECT_THAT(bake.output, HasSubstr("{apo,n3tree}=apo\n"));
+  const auto reconstruct = apo("reconstruct --help");
+  EXPECT_THAT(reconstruct.output, HasSubstr("scale-space}=auto\n"));
+}
+
+// A bad option fails before any file is read (here M does not exist).
+TEST(BakeCommand, BadOptionIsAUsageErrorBeforeAnyInputIsRead) {
+  const fs::path dir = test::freshTempDir();
+  const auto result = apo(fmt::format("bake --detail '{0}/absent.ply' --coarse '{0}/absent.ply' -o '{0}/out' --samples 0",
+                                      dir.string()));
+  EXPECT_EQ(result.exitCode, 1) << result.output;
+  EXPECT_THAT(result.output, HasSubstr("--samples must be in [1, 64], got 0"));
+}
+
 TEST(BakeCommand, WritesTheApoItsPngAndReport) {
   const Inputs in;
   const fs::path out = in.dir / "out";

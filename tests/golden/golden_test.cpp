@@ -166,7 +166,7 @@ class Golden : public ::testing::Test {
 Scan* Golden::input_ = nullptr;
 
 TEST_F(Golden, SimplifyGivesTheGoldenM) {
-  auto m = simplifyMesh(*input_, goldenSimplify());
+  auto m = simplifyMesh(*input_, test::checked(goldenSimplify()));
   ASSERT_TRUE(m.ok()) << m.error().message;
   expectGolden(plyBytes(m->mesh), kCurrent / "m.ply", plyField);
 }
@@ -174,7 +174,7 @@ TEST_F(Golden, SimplifyGivesTheGoldenM) {
 TEST_F(Golden, BakeGivesTheGoldenApoAndReport) {
   auto m = readScan(kCurrent / "m.ply");
   ASSERT_TRUE(m.ok()) << m.error().message;
-  auto bake = bakeApo(*input_, *m, goldenBake());
+  auto bake = bakeApo(*input_, *m, test::checked(goldenBake()));
   ASSERT_TRUE(bake.ok()) << bake.error().message;
   expectGolden(apoBytes(bake->texture), kCurrent / "scan.apo", apoField);
   expectGolden(bakeJsonWithoutTimings(bake->report), kCurrent / "bake.json", textLine);
@@ -188,7 +188,7 @@ TEST_F(Golden, BakeWithABudgetGivesTheGoldenApo) {
   BakeOptions options = goldenBake();
   options.budget = 6000;
   options.error = 0.0;
-  auto bake = bakeApo(*input_, *m, options);
+  auto bake = bakeApo(*input_, *m, test::checked(options));
   ASSERT_TRUE(bake.ok()) << bake.error().message;
   EXPECT_EQ(bake->report.refinement.stoppedBy, "budget");
   EXPECT_LE(bake->texture.texels.size() + 128, options.budget);
@@ -208,7 +208,7 @@ TEST_F(Golden, BakeWithTwoSidedLeavesGivesTheGoldenV4Apo) {
   BakeOptions options = goldenBake();
   options.error = 0.0;
   options.budget = 16000;
-  auto bake = bakeApo(in.detail, in.coarse, options);
+  auto bake = bakeApo(in.detail, in.coarse, test::checked(options));
   ASSERT_TRUE(bake.ok()) << bake.error().message;
   EXPECT_GT(bake->texture.twoSidedLeaves, 0u);
   const std::string bytes = apoBytes(bake->texture);
@@ -237,7 +237,7 @@ TEST_F(Golden, BakeGivesTheGoldenN3Trees) {
   ASSERT_TRUE(m.ok()) << m.error().message;
   BakeOptions options = goldenBake();
   options.layout = TextureLayout::N3Tree;
-  auto bake = bakeApo(*input_, *m, options);
+  auto bake = bakeApo(*input_, *m, test::checked(options));
   ASSERT_TRUE(bake.ok() && bake->n3tree) << (bake.ok() ? "no tree" : bake.error().message);
   expectGolden(n3tBytes(*bake->n3tree), kGolden / "n3t" / "scan_n2.n3t", n3tField);
 
@@ -247,7 +247,7 @@ TEST_F(Golden, BakeGivesTheGoldenN3Trees) {
   thin.budget = 16000;
   thin.layout = TextureLayout::N3Tree;
   thin.n3Size = 4;
-  auto shell = bakeApo(in.detail, in.coarse, thin);
+  auto shell = bakeApo(in.detail, in.coarse, test::checked(thin));
   ASSERT_TRUE(shell.ok() && shell->n3tree) << (shell.ok() ? "no tree" : shell.error().message);
   EXPECT_GT(shell->n3tree->twoSidedLeaves, 0u);
   EXPECT_TRUE(shell->n3tree->defersToCoarse || shell->n3tree->coarseAtInternalNodes);

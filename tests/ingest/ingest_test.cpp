@@ -38,7 +38,7 @@ TEST(IngestScan, PointCloudIsCleanedAndGetsOutwardNormals) {
   const auto first = test::fibonacciSpherePoints(3000);
   for (int i = 0; i < 5; ++i) text += fmt::format("{} {} {}\n", first[i].x(), first[i].y(), first[i].z());
   test::writeBytes(path, text);
-  auto result = ingestScan(path, IngestOptions{});
+  auto result = ingestScan(path, test::checked(IngestOptions{}));
   ASSERT_TRUE(result.ok()) << result.error().message;
   const IngestReport& report = result->report;
   EXPECT_EQ(report.format, "xyz");
@@ -122,7 +122,7 @@ TEST(IngestScan, ADepthFrameIsTriangulatedOnItsGridAndCutAtDepthJumps) {
   const fs::path path = test::freshTempDir() / "frame.pcd";
   const DepthFrame frame = ballBeforeAWall(80, 60);
   test::writeBytes(path, frame.pcd);
-  auto result = ingestScan(path, IngestOptions{});
+  auto result = ingestScan(path, test::checked(IngestOptions{}));
   ASSERT_TRUE(result.ok()) << result.error().message;
   const IngestReport& report = result->report;
   const Scan& mesh = result->scan;
@@ -174,7 +174,7 @@ TEST(IngestScan, ADepthFrameIsTriangulatedOnItsGridAndCutAtDepthJumps) {
 
   IngestOptions asPoints;
   asPoints.triangulateGrid = false;
-  auto points = ingestScan(path, asPoints);
+  auto points = ingestScan(path, test::checked(asPoints));
   ASSERT_TRUE(points.ok()) << points.error().message;
   EXPECT_FALSE(points->report.isMesh);
   EXPECT_FALSE(points->report.gridMesh.made);
@@ -214,7 +214,7 @@ TEST(IngestScan, ANoisyGrazingFrameIsNotCutIntoASieve) {
   ASSERT_GT(overFour, cells / 25) << overFour;
   const fs::path path = test::freshTempDir() / "floor.pcd";
   test::writeBytes(path, pcd);
-  auto result = ingestScan(path, IngestOptions{});
+  auto result = ingestScan(path, test::checked(IngestOptions{}));
   ASSERT_TRUE(result.ok()) << result.error().message;
   const auto& grid = result->report.gridMesh;
   ASSERT_TRUE(grid.made);
@@ -232,7 +232,7 @@ TEST(IngestScan, MeshSoupIsWeldedAndGetsFaceNormals) {
   test::writeBytes(path,
                    "OFF\n8 4 0\n0 0 0\n1 0 0\n1 1 0\n0 0 0\n1 1 0\n0 1 0\n5 5 5\n2 0 0\n"
                    "3 0 1 2\n3 3 4 5\n3 0 1 7\n3 2 0 1\n");
-  auto result = ingestScan(path, IngestOptions{});
+  auto result = ingestScan(path, test::checked(IngestOptions{}));
   ASSERT_TRUE(result.ok()) << result.error().message;
   const IngestReport& report = result->report;
   EXPECT_TRUE(report.isMesh);
@@ -251,7 +251,7 @@ TEST(IngestScan, MeshSoupIsWeldedAndGetsFaceNormals) {
 std::string badInputMessage(const std::string& name, std::string_view bytes) {
   const fs::path path = test::freshTempDir() / name;
   test::writeBytes(path, bytes);
-  auto result = ingestScan(path, IngestOptions{});
+  auto result = ingestScan(path, test::checked(IngestOptions{}));
   if (result.ok()) return "<ingest succeeded>";
   EXPECT_EQ(result.error().kind, ErrorKind::BadInput);
   EXPECT_THAT(result.error().message, HasSubstr(path.string()));
@@ -279,7 +279,7 @@ TEST(IngestScan, VoxelAndOutlierOptionsAreReported) {
   IngestOptions options;
   options.removeOutliers = true;
   options.voxelSize = 0.2;
-  auto result = ingestScan(path, options);
+  auto result = ingestScan(path, test::checked(options));
   ASSERT_TRUE(result.ok()) << result.error().message;
   EXPECT_GE(removedBy(result->report, "remove_statistical_outliers"), 1u);
   for (const Vec3f& p : result->scan.points.positions) EXPECT_LT(p.norm(), 1.01f);
@@ -291,7 +291,7 @@ TEST(IngestScan, SensorPositionOverridesOrientation) {
   test::writeBytes(path, sphereXyz(2000));
   IngestOptions options;
   options.sensorPosition = Vec3f::Zero();  // as if scanned from inside
-  auto result = ingestScan(path, options);
+  auto result = ingestScan(path, test::checked(options));
   ASSERT_TRUE(result.ok()) << result.error().message;
   EXPECT_EQ(result->report.normalOrientation, "viewpoint");
   const auto& points = result->scan.points;
@@ -301,7 +301,7 @@ TEST(IngestScan, SensorPositionOverridesOrientation) {
 TEST(IngestScan, BadOptionIsAUsageError) {
   IngestOptions options;
   options.voxelSize = -1;
-  auto result = ingestScan("whatever.ply", options);
+  auto result = check(options);
   ASSERT_FALSE(result.ok());
   EXPECT_EQ(result.error().kind, ErrorKind::Usage);
 }
@@ -310,7 +310,7 @@ TEST(WriteIngestOutputs, WritesPlyAndJsonThatReadBack) {
   const fs::path dir = test::freshTempDir();
   const fs::path input = dir / "in.xyz";
   test::writeBytes(input, sphereXyz(500));
-  auto result = ingestScan(input, IngestOptions{});
+  auto result = ingestScan(input, test::checked(IngestOptions{}));
   ASSERT_TRUE(result.ok());
   ASSERT_TRUE(writeIngestOutputs(dir / "out", *result).ok());
   auto ply = readScan(dir / "out" / "scan.ply");
@@ -328,7 +328,7 @@ TEST(WriteIngestOutputs, WritesPlyAndJsonThatReadBack) {
 
 TEST(IngestScan, RealLaserScanTableSceneOrientsTowardsItsViewpoint) {
   const fs::path path = test::datasetPath("pcl/table_scene_lms400.pcd");
-  auto result = ingestScan(path, IngestOptions{});
+  auto result = ingestScan(path, test::checked(IngestOptions{}));
   ASSERT_TRUE(result.ok()) << result.error().message;
   const IngestReport& report = result->report;
   EXPECT_EQ(report.pointsIn, 460400u);

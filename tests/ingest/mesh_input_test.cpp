@@ -22,7 +22,7 @@ Scan rangeScanSoup(int views) {
   options.views = views;
   options.raysPerSide = 80;
   options.asMesh = true;
-  return simulateScan(sphere, *caster, options).value().scan;
+  return simulateScan(sphere, *caster, test::checked(options)).value().scan;
 }
 
 Scan flipped(Scan mesh) {
@@ -33,7 +33,7 @@ Scan flipped(Scan mesh) {
 IngestResult ingestAs(const Scan& mesh, const IngestOptions& options = {}) {
   const fs::path path = test::freshTempDir() / "input.ply";
   EXPECT_TRUE(writePly(path, mesh).ok());
-  auto result = ingestScan(path, options);
+  auto result = ingestScan(path, test::checked(options));
   EXPECT_TRUE(result.ok()) << result.error().message;
   return std::move(result).value();
 }
@@ -162,7 +162,7 @@ TEST(MeshInput, ScansOfASheetSeenFromBothSidesAreTurnedToFaceOneWay) {
   options.views = 8;
   options.raysPerSide = 80;
   options.asMesh = true;
-  const Scan soup = simulateScan(shell, *caster, options).value().scan;
+  const Scan soup = simulateScan(shell, *caster, test::checked(options)).value().scan;
   // The test's premise: some of the soup's points face up (seen from
   // outside), some down.
   const auto facingUp = [](const Scan& scan) {

@@ -12,7 +12,7 @@ namespace {
 // The scanner against the brute-force caster, the independent reference.
 Result<SimulatedScan> scanOf(const Scan& mesh, const SimulateScanOptions& options) {
   const test::BruteForceCaster caster(mesh);
-  return simulateScan(mesh, caster, options);
+  return simulateScan(mesh, caster, test::checked(options));
 }
 
 TEST(SimulateScan, NoiselessScanOfASphereLiesOnIt) {
@@ -77,7 +77,7 @@ TEST(SimulateScan, SameSeedSameScanOtherSeedOtherScan) {
 TEST(SimulateScan, RejectsBadOptions) {
   SimulateScanOptions options;
   options.views = 0;
-  auto result = scanOf(test::makeIcosphere(1), options);
+  auto result = check(options);
   ASSERT_FALSE(result.ok());
   EXPECT_EQ(result.error().kind, ErrorKind::Usage);
 }

@@ -45,7 +45,7 @@ inline PointSet scannedPoints(const Scan& mesh, int views, int raysPerSide) {
   scanner.rangeNoise = 0.0005;
   scanner.misregistration = 0.0001;
   scanner.withNormals = true;
-  auto simulated = simulateRangeScan(mesh, scanner);
+  auto simulated = simulateRangeScan(mesh, test::checked(scanner));
   EXPECT_TRUE(simulated.ok()) << simulated.error().message;
   return simulated.ok() ? simulated->scan.points : PointSet{};
 }

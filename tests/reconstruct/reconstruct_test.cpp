@@ -27,11 +27,11 @@ PointSet scannedPoints(const Scan& mesh, const std::string& name) {
   scanner.raysPerSide = 90;
   scanner.rangeNoise = 0.0005;
   scanner.misregistration = 0.0001;
-  auto simulated = simulateRangeScan(mesh, scanner);
+  auto simulated = simulateRangeScan(mesh, test::checked(scanner));
   EXPECT_TRUE(simulated.ok());
   const fs::path path = test::freshTempDir() / (name + ".ply");
   EXPECT_TRUE(writePly(path, simulated->scan).ok());
-  auto ingested = ingestScan(path, IngestOptions{});
+  auto ingested = ingestScan(path, test::checked(IngestOptions{}));
   EXPECT_TRUE(ingested.ok()) << ingested.error().message;
   return ingested->scan.points;
 }
@@ -55,7 +55,7 @@ TEST_P(ReconstructShapes, MatchesTheAnalyticSurfaceAndTopology) {
   const PointSet points = scannedPoints(truth, c.torus ? "torus" : "sphere");
   ReconstructOptions options;
   options.method = c.method;
-  auto result = reconstructSurface(points, options);
+  auto result = reconstructSurface(points, test::checked(options));
   ASSERT_TRUE(result.ok()) << result.error().message;
   const Scan& M = result->mesh;
   const ReconstructReport& report = result->report;
@@ -106,7 +106,7 @@ TEST(ReconstructSurface, LargeInputIsSubsampledAndSaysSo) {
   ReconstructOptions options;
   options.method = ReconstructionMethod::AdvancingFront;
   options.maxPoints = 3000;
-  auto result = reconstructSurface(points, options);
+  auto result = reconstructSurface(points, test::checked(options));
   ASSERT_TRUE(result.ok()) << result.error().message;
   EXPECT_EQ(result->report.pointsIn, 12000u);
   EXPECT_LE(result->report.pointsUsed, 3000u);
@@ -129,10 +129,10 @@ TEST(ReconstructSurface, AutoPicksPoissonForClosedAndAdvancingFrontForOpen) {
   // the mean of z over the cap: (1 + 0.5) / 2 = 0.75.
   EXPECT_LT(normalImbalance(sphereCap(-2.0f)), 0.01);
   EXPECT_NEAR(normalImbalance(sphereCap(0.5f)), 0.75, 0.01);
-  auto closed = reconstructSurface(sphereCap(-2.0f), ReconstructOptions{});
+  auto closed = reconstructSurface(sphereCap(-2.0f), test::checked(ReconstructOptions{}));
   ASSERT_TRUE(closed.ok()) << closed.error().message;
   EXPECT_EQ(closed->report.method, "poisson");
-  auto open = reconstructSurface(sphereCap(0.5f), ReconstructOptions{});
+  auto open = reconstructSurface(sphereCap(0.5f), test::checked(ReconstructOptions{}));
   ASSERT_TRUE(open.ok()) << open.error().message;
   EXPECT_EQ(open->report.method, "advancing-front");
   EXPECT_EQ(open->report.quality.boundaryLoops, 1u);
@@ -140,7 +140,7 @@ TEST(ReconstructSurface, AutoPicksPoissonForClosedAndAdvancingFrontForOpen) {
 
 TEST(ReconstructSurface, ReportsRisingProgressToTheEnd) {
   std::vector<double> fractions;
-  auto result = reconstructSurface(sphereCap(0.5f), ReconstructOptions{}, [&](double f) { fractions.push_back(f); });
+  auto result = reconstructSurface(sphereCap(0.5f), test::checked(ReconstructOptions{}), [&](double f) { fractions.push_back(f); });
   ASSERT_TRUE(result.ok()) << result.error().message;
   ASSERT_GE(fractions.size(), 3u);  // after the spacing, after the method, after clean-up, the end
   EXPECT_TRUE(std::is_sorted(fractions.begin(), fractions.end()));
@@ -152,7 +152,7 @@ TEST(ReconstructSurface, TooFewPointsIsBadInput) {
   PointSet points;
   points.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
   points.normals.assign(3, Vec3f::UnitZ());
-  auto result = reconstructSurface(points, ReconstructOptions{});
+  auto result = reconstructSurface(points, test::checked(ReconstructOptions{}));
   ASSERT_FALSE(result.ok());
   EXPECT_EQ(result.error().kind, ErrorKind::BadInput);
   EXPECT_THAT(result.error().message, HasSubstr("too few"));
@@ -161,7 +161,7 @@ TEST(ReconstructSurface, TooFewPointsIsBadInput) {
 TEST(ReconstructSurface, PointsWithoutNormalsAskForIngest) {
   PointSet points;
   points.positions = test::fibonacciSpherePoints(500);
-  auto result = reconstructSurface(points, ReconstructOptions{});
+  auto result = reconstructSurface(points, test::checked(ReconstructOptions{}));
   ASSERT_FALSE(result.ok());
   EXPECT_THAT(result.error().message, HasSubstr("apo ingest"));
 }
@@ -173,7 +173,7 @@ TEST(ReconstructSurface, CoplanarPointsAreBadInput) {
       points.positions.emplace_back(i * 0.1f, j * 0.1f, 2.0f);
       points.normals.push_back(Vec3f::UnitZ());
     }
-  auto result = reconstructSurface(points, ReconstructOptions{});
+  auto result = reconstructSurface(points, test::checked(ReconstructOptions{}));
   ASSERT_FALSE(result.ok());
   EXPECT_THAT(result.error().message, HasSubstr("one plane"));
 }
@@ -181,14 +181,14 @@ TEST(ReconstructSurface, CoplanarPointsAreBadInput) {
 TEST(ReconstructSurface, BadOptionsAreUsageErrors) {
   ReconstructOptions options;
   options.minComponent = 1.5;
-  auto result = reconstructSurface(PointSet{}, options);
+  auto result = check(options);
   ASSERT_FALSE(result.ok());
   EXPECT_EQ(result.error().kind, ErrorKind::Usage);
 }
 
 TEST(ReconstructScan, AMeshIsAdoptedAsM) {
   const Scan sphere = test::makeIcosphere(2);
-  auto result = reconstructScan(sphere, ReconstructOptions{});
+  auto result = reconstructScan(sphere, test::checked(ReconstructOptions{}));
   ASSERT_TRUE(result.ok());
   EXPECT_EQ(result->report.method, "input-mesh");
   EXPECT_EQ(result->mesh.triangles, sphere.triangles);

@@ -27,7 +27,7 @@ TEST(SimplifyMesh, DenseSphereTo500FacesStaysOnTheSphere) {
   const Scan dense = test::makeIcosphere(6);  // 81,920 faces
   SimplifyOptions options;
   options.targetFaces = 500;
-  auto result = simplifyMesh(dense, options);
+  auto result = simplifyMesh(dense, test::checked(options));
   ASSERT_TRUE(result.ok()) << result.error().message;
   const Scan& m = result->mesh;
   EXPECT_NEAR(static_cast<double>(m.triangles.size()), 500.0, 5.0);
@@ -52,7 +52,7 @@ TEST(SimplifyMesh, ALargeMeshGoesThroughTheQuickPassAndStaysOnTheSphere) {
   const Scan dense = test::makeIcosphere(7);  // 327,680 faces
   SimplifyOptions options;
   options.targetFaces = 500;
-  auto result = simplifyMesh(dense, options);
+  auto result = simplifyMesh(dense, test::checked(options));
   ASSERT_TRUE(result.ok()) << result.error().message;
   EXPECT_LE(result->report.quickPassFaces, kQuickCollapseFaces);
   EXPECT_GT(result->report.quickPassFaces, kQuickCollapseFaces * 9 / 10);
@@ -79,7 +79,7 @@ TEST(SimplifyMesh, SameOptionsGiveByteIdenticalFiles) {
   options.targetFaces = 700;
   const fs::path dir = test::freshTempDir();
   for (const char* name : {"a.ply", "b.ply"}) {
-    auto result = simplifyMesh(dense, options);
+    auto result = simplifyMesh(dense, test::checked(options));
     ASSERT_TRUE(result.ok());
     ASSERT_TRUE(writePly(dir / name, result->mesh).ok());
   }
@@ -90,7 +90,7 @@ TEST(SimplifyMesh, RatioAndLindstromTurk) {
   SimplifyOptions options;
   options.ratio = 0.1;
   options.policy = SimplifyPolicy::LindstromTurk;
-  auto result = simplifyMesh(test::makeIcosphere(4), options);  // 5,120 faces
+  auto result = simplifyMesh(test::makeIcosphere(4), test::checked(options));  // 5,120 faces
   ASSERT_TRUE(result.ok());
   EXPECT_EQ(result->report.targetFaces, 512u);
   EXPECT_NEAR(static_cast<double>(result->report.facesOut), 512.0, 5.2);
@@ -103,8 +103,8 @@ TEST(SimplifyMesh, ReportsRisingProgressAndTheSameMesh) {
   SimplifyOptions options;
   options.targetFaces = 512;
   std::vector<double> fractions;
-  auto watched = simplifyMesh(test::makeIcosphere(4), options, [&](double f) { fractions.push_back(f); });
-  auto plain = simplifyMesh(test::makeIcosphere(4), options);
+  auto watched = simplifyMesh(test::makeIcosphere(4), test::checked(options), [&](double f) { fractions.push_back(f); });
+  auto plain = simplifyMesh(test::makeIcosphere(4), test::checked(options));
   ASSERT_TRUE(watched.ok() && plain.ok());
   EXPECT_EQ(watched->mesh.triangles, plain->mesh.triangles);
   ASSERT_GE(fractions.size(), 50u);  // a report per percent of the collapses, at most 101 and the end
@@ -118,7 +118,7 @@ TEST(SimplifyMesh, TargetNotBelowInputKeepsTheMeshAndSaysSo) {
   SimplifyOptions options;
   options.targetFaces = 100000;
   const Scan sphere = test::makeIcosphere(2);
-  auto result = simplifyMesh(sphere, options);
+  auto result = simplifyMesh(sphere, test::checked(options));
   ASSERT_TRUE(result.ok());
   EXPECT_EQ(result->mesh.triangles, sphere.triangles);
   EXPECT_THAT(result->report.policy, HasSubstr("target not below input"));
@@ -127,13 +127,13 @@ TEST(SimplifyMesh, TargetNotBelowInputKeepsTheMeshAndSaysSo) {
 TEST(SimplifyMesh, PointCloudAndBadTargetsAreRefused) {
   Scan cloud;
   cloud.points.positions = {{0, 0, 0}};
-  EXPECT_EQ(simplifyMesh(cloud, SimplifyOptions{}).error().kind, ErrorKind::BadInput);
+  EXPECT_EQ(simplifyMesh(cloud, test::checked(SimplifyOptions{})).error().kind, ErrorKind::BadInput);
   SimplifyOptions options;
   options.targetFaces = 2;
-  EXPECT_EQ(simplifyMesh(test::makeIcosphere(1), options).error().kind, ErrorKind::Usage);
+  EXPECT_EQ(check(options).error().kind, ErrorKind::Usage);
   options = {};
   options.ratio = 1.5;
-  EXPECT_EQ(simplifyMesh(test::makeIcosphere(1), options).error().kind, ErrorKind::Usage);
+  EXPECT_EQ(check(options).error().kind, ErrorKind::Usage);
 }
 
 TEST(SimplifyMesh, NonManifoldInputIsRepairedNotFatal) {
@@ -149,7 +149,7 @@ TEST(SimplifyMesh, NonManifoldInputIsRepairedNotFatal) {
   }
   SimplifyOptions options;
   options.targetFaces = 400;
-  auto result = simplifyMesh(a, options);
+  auto result = simplifyMesh(a, test::checked(options));
   ASSERT_TRUE(result.ok()) << result.error().message;
   EXPECT_NEAR(static_cast<double>(result->report.facesOut), 400.0, 4.0);
 }
@@ -180,7 +180,7 @@ TEST(SimplifyMesh, BordersAreKeptWhenTheyFitTheTarget) {
   const Scan grid = heightFieldGrid(20, [](float x, float y) { return 0.1f * x * y; }, [](int, int) { return false; });
   SimplifyOptions options;
   options.targetFaces = 300;
-  auto result = simplifyMesh(grid, options);
+  auto result = simplifyMesh(grid, test::checked(options));
   ASSERT_TRUE(result.ok()) << result.error().message;
   EXPECT_NEAR(static_cast<double>(result->report.facesOut), 300.0, 3.0);
   EXPECT_FALSE(result->report.bordersCollapsed);
@@ -202,7 +202,7 @@ TEST(SimplifyMesh, SmallHolesAndLongBordersStillReachTheTarget) {
   const Scan grid = heightFieldGrid(100, height, [](int i, int j) { return i % 10 == 5 && j % 10 == 5; });
   SimplifyOptions options;
   options.targetFaces = 200;
-  auto result = simplifyMesh(grid, options);
+  auto result = simplifyMesh(grid, test::checked(options));
   ASSERT_TRUE(result.ok()) << result.error().message;
   const Scan& m = result->mesh;
   EXPECT_NEAR(static_cast<double>(m.triangles.size()), 200.0, 2.0);

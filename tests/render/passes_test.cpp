@@ -21,7 +21,7 @@ class BumpySphereRender : public ::testing::Test {
   static void SetUpTestSuite() {
     detail_ = new Scan(test::BumpySphere().mesh(6));
     coarse_ = new Scan(test::makeIcosphere(3));
-    auto bake = bakeApo(*detail_, *coarse_, BakeOptions{});  // the default settings
+    auto bake = bakeApo(*detail_, *coarse_, test::checked(BakeOptions{}));  // the default settings
     ASSERT_TRUE(bake.ok()) << bake.error().message;
     texture_ = new ApoTexture(std::move(bake->texture));
     octree_ = new Octree(std::move(bake->octree));
@@ -237,8 +237,8 @@ TEST_F(BumpySphereRender, N3TreeDrawsWhatTheApoDraws) {
     options.views = 4;
     options.timedFrames = 0;
     options.filtering = filtering;
-    auto apo = renderViews(detail_, *coarse_, *flat, options);
-    auto n3 = renderViews(detail_, *coarse_, *tree, options);
+    auto apo = renderViews(detail_, *coarse_, *flat, test::checked(options));
+    auto n3 = renderViews(detail_, *coarse_, *tree, test::checked(options));
     ASSERT_TRUE(apo.ok() && n3.ok());
     for (std::size_t v = 0; v < apo->size(); ++v) {
       const AngularStats apart = angularErrors((*n3)[v].apo.normals, (*apo)[v].apo.normals);
@@ -251,7 +251,7 @@ TEST_F(BumpySphereRender, N3TreeDrawsWhatTheApoDraws) {
 TEST_F(BumpySphereRender, EveryViewHasItsThreePassesOverTheSameSilhouette) {
   RenderOptions options;
   options.size = 128;
-  auto views = renderViews(detail_, *coarse_, *texture_, options);
+  auto views = renderViews(detail_, *coarse_, *texture_, test::checked(options));
   ASSERT_TRUE(views.ok()) << views.error().message;
   ASSERT_EQ(views->size(), 14u);
   for (const ViewImages& view : *views) {
@@ -285,13 +285,13 @@ TEST_F(BumpySphereRender, TrilinearFilteringFollowsMsSmoothNormalsCloser) {
   BakeOptions paper;
   paper.budget = 0;
   paper.error = 0.05;
-  auto bake = bakeApo(*detail_, *coarse_, paper);
+  auto bake = bakeApo(*detail_, *coarse_, test::checked(paper));
   ASSERT_TRUE(bake.ok()) << bake.error().message;
   RenderOptions options;
   options.size = 128;
-  auto flat = renderViews(detail_, *coarse_, bake->texture, options);
+  auto flat = renderViews(detail_, *coarse_, bake->texture, test::checked(options));
   options.filtering = true;
-  auto filtered = renderViews(detail_, *coarse_, bake->texture, options);
+  auto filtered = renderViews(detail_, *coarse_, bake->texture, test::checked(options));
   ASSERT_TRUE(flat.ok() && filtered.ok());
   EXPECT_LT(meanApoError(*filtered), 0.6 * meanApoError(*flat));
 }
@@ -307,10 +307,10 @@ TEST_F(BumpySphereRender, PointsAsSplatsShowTheSameSurfaceAsTheMesh) {
   options.size = 128;
   options.views = 6;
   options.timedFrames = 0;
-  auto fromMesh = renderViews(detail_, *coarse_, *texture_, options);
+  auto fromMesh = renderViews(detail_, *coarse_, *texture_, test::checked(options));
   for (const bool pointLod : {true, false}) {
     options.pointLod = pointLod;
-    auto fromPoints = renderViews(&points, *coarse_, *texture_, options);
+    auto fromPoints = renderViews(&points, *coarse_, *texture_, test::checked(options));
     ASSERT_TRUE(fromMesh.ok() && fromPoints.ok());
     for (std::size_t v = 0; v < fromMesh->size(); ++v) {
       const PassImages& mesh = (*fromMesh)[v].reference;
@@ -332,7 +332,7 @@ TEST_F(BumpySphereRender, PointsWithoutNormalsAreRefused) {
   points.points.normals.clear();
   RenderOptions options;
   options.size = 32;
-  auto views = renderViews(&points, *coarse_, *texture_, options);
+  auto views = renderViews(&points, *coarse_, *texture_, test::checked(options));
   ASSERT_FALSE(views.ok());
   EXPECT_EQ(views.error().kind, ErrorKind::BadInput);
   EXPECT_NE(views.error().message.find("without normals"), std::string::npos);
@@ -345,7 +345,7 @@ FetchCounts fetchesOf(const Scan& coarse, const ApoTexture& texture, bool mipmap
   options.views = 6;
   options.timedFrames = 0;
   options.mipmapping = mipmapping;
-  auto views = renderViews(nullptr, coarse, texture, options);
+  auto views = renderViews(nullptr, coarse, texture, test::checked(options));
   EXPECT_TRUE(views.ok());
   return views.ok() ? totalCost(*views).apoFetches : FetchCounts{};
 }
@@ -372,7 +372,7 @@ TEST_F(BumpySphereRender, MipmappingStopsTheWalkEarlierWhenCellsAreSmallerThanPi
   // the latest, 2 (6 - 5) + 3 = 5 reads.
   BakeOptions fine;
   fine.error = 0.0005;
-  auto bake = bakeApo(*detail_, *coarse_, fine);
+  auto bake = bakeApo(*detail_, *coarse_, test::checked(fine));
   ASSERT_TRUE(bake.ok());
   const FetchCounts mipmapped = fetchesOf(*coarse_, bake->texture, true, 32);
   const FetchCounts full = fetchesOf(*coarse_, bake->texture, false, 32);
@@ -387,7 +387,7 @@ TEST_F(BumpySphereRender, EveryPassOfEveryViewIsTimed) {
   options.size = 64;
   options.views = 2;
   options.timedFrames = 3;
-  auto views = renderViews(detail_, *coarse_, *texture_, options);
+  auto views = renderViews(detail_, *coarse_, *texture_, test::checked(options));
   ASSERT_TRUE(views.ok());
   for (const ViewImages& view : *views) {
     EXPECT_GT(view.cost.referenceMilliseconds, 0.0);
@@ -405,13 +405,13 @@ TEST(BumpySphereAllOver, AtTheDefaultBakeTheFilteredApoHasAThirdOfMsOwnNormalsEr
   // leaf's single normal against M's smoothly turning one.
   const Scan detail = test::BumpySphere::allOver().mesh(6);
   const Scan coarse = test::makeIcosphere(4);
-  auto bake = bakeApo(detail, coarse, BakeOptions{});
+  auto bake = bakeApo(detail, coarse, test::checked(BakeOptions{}));
   ASSERT_TRUE(bake.ok()) << bake.error().message;
   RenderOptions options;
   options.size = 256;
   options.timedFrames = 0;
   options.filtering = true;
-  auto views = renderViews(&detail, coarse, bake->texture, options);
+  auto views = renderViews(&detail, coarse, bake->texture, test::checked(options));
   ASSERT_TRUE(views.ok()) << views.error().message;
   const RenderFigures figures = measureViews(*views);
   EXPECT_GT(figures.apo.pixels, 14u * 10000u);
@@ -474,7 +474,7 @@ TEST(BackFaces, AreTintedInTheShadedImageOnly) {
   RenderOptions options;
   options.size = 64;
   options.timedFrames = 0;
-  auto views = renderViews(nullptr, square, oneNodeApo(), options);
+  auto views = renderViews(nullptr, square, oneNodeApo(), test::checked(options));
   ASSERT_TRUE(views.ok()) << views.error().message;
   const auto meanColour = [](const PassImages& pass) {
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();

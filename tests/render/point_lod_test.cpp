@@ -219,7 +219,7 @@ TEST(PointLodRender, TheGeometryShaderDrawsTheLevelsTheCpuChooses) {
     options.views = 3;
     options.timedFrames = 0;
     options.lodThreshold = threshold;
-    auto views = renderViews(&detail, coarse, empty, options);
+    auto views = renderViews(&detail, coarse, empty, test::checked(options));
     ASSERT_TRUE(views.ok()) << views.error().message;
     for (const ViewImages& view : *views) {
       const float pixelsPerUnit = 256.0f / (2.0f * std::tan(0.5f * view.camera.fovYDegrees * std::numbers::pi_v<float> / 180.0f));
@@ -242,9 +242,9 @@ TEST(PointLodRender, TheGeometryShaderDrawsTheLevelsTheCpuChooses) {
   options.size = 256;
   options.views = 3;
   options.timedFrames = 0;
-  auto withLod = renderViews(&detail, coarse, empty, options);
+  auto withLod = renderViews(&detail, coarse, empty, test::checked(options));
   options.pointLod = false;
-  auto allPoints = renderViews(&detail, coarse, empty, options);
+  auto allPoints = renderViews(&detail, coarse, empty, test::checked(options));
   ASSERT_TRUE(withLod.ok() && allPoints.ok());
   for (std::size_t v = 0; v < withLod->size(); ++v) {
     EXPECT_EQ((*allPoints)[v].cost.referenceSent, points.size());

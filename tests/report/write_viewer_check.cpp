@@ -36,7 +36,7 @@ apo::Status run(const std::filesystem::path& out) {
   std::filesystem::create_directories(out / kImagesFolder);
   const apo::Scan detail = apo::test::BumpySphere().mesh(6);
   const apo::Scan coarse = apo::test::makeIcosphere(3);
-  auto baked = apo::bakeApo(detail, coarse, apo::BakeOptions{});
+  auto baked = apo::bakeApo(detail, coarse, apo::test::checked(apo::BakeOptions{}));
   if (!baked) return baked.error();
   apo::RenderOptions options;
   options.size = kSize;
@@ -44,7 +44,7 @@ apo::Status run(const std::filesystem::path& out) {
   std::vector<apo::Camera> cameras;
   for (const bool filtering : {false, true}) {
     options.filtering = filtering;
-    auto views = apo::renderViews(&detail, coarse, baked->texture, options);
+    auto views = apo::renderViews(&detail, coarse, baked->texture, apo::test::checked(options));
     if (!views) return views.error();
     APO_RETURN_IF_ERROR(writeExpected(out / (filtering ? "expected_filtered.f32" : "expected_plain.f32"), *views));
     cameras.clear();
