@@ -4,6 +4,9 @@
 // analytic normal field varies.
 #include "bake/octree_build.h"
 
+#include "bake/cell_clip.h"
+#include "bake/l21_metric.h"
+
 #include "tests/test_support.h"
 
 #include <gtest/gtest.h>
