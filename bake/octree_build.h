@@ -1,12 +1,15 @@
-// Inside bake: the adaptive octree of paper section 3.1 and the geometry it
-// rests on. Everything here works in unit-cube coordinates.
+// Inside bake: the adaptive octree of paper section 3.1, its shared types and
+// buildOctree. The build is three units, each with its header:
+// cell_clip.h (M's and m's triangles against cells), l21_metric.h (the L2,1
+// metric's sums and leaf errors) and refinement.h (the global refinement
+// under a texel budget); octree_build.cpp wires them. Everything here works
+// in unit-cube coordinates.
 #pragma once
 
 #include "bake/bake.h"
 
 #include <array>
 #include <cstdint>
-#include <span>
 #include <string>
 #include <vector>
 
@@ -22,30 +25,6 @@ struct Cell {
   Vec3f upper() const { return centre + Vec3f::Constant(0.5f * width); }
   Cell child(int c) const { return {childCentre(centre, width, c), 0.5f * width, depth + 1}; }
 };
-
-// Exact triangle / closed box overlap by the separating axis theorem
-// (Akenine-Moller 2001): 3 box axes, the triangle normal, 9 edge crossings.
-bool triangleOverlapsBox(const Vec3f& a, const Vec3f& b, const Vec3f& c, const Cell& cell);
-
-// The children of `cell` among `wanted` (bit c: child c) whose closed boxes
-// meet triangle abc, as triangleOverlapsBox answers for each: its test made
-// once for the eight, each child whose answer is within rounding tested
-// apart. Testing each child apart projected the corners again for each: m's
-// triangles, tested against the children and grandchildren of every leaf
-// evaluated, took 7% of the 1.2M bunny's bake so (docs/benchmarks.md).
-std::uint8_t childrenMeeting(const Vec3f& a, const Vec3f& b, const Vec3f& c, const Cell& cell,
-                             std::uint8_t wanted = 0xFF);
-
-// The part of triangle abc inside the cell (Sutherland-Hodgman against the
-// six faces): a convex polygon of up to 9 corners, none when they miss. In
-// place: the sampling clips each of m's triangles to each leaf it is in.
-struct CellPolygon {
-  std::array<Vec3f, 9> corners;
-  int size = 0;
-  std::span<const Vec3f> view() const { return {corners.data(), static_cast<std::size_t>(size)}; }
-};
-CellPolygon clipTriangleToCell(const Vec3f& a, const Vec3f& b, const Vec3f& c, const Cell& cell);
-double polygonArea(std::span<const Vec3f> polygon);
 
 // A triangle of M as the L2,1 metric reads it, in one record: the build
 // reads every triangle once per level it descends, and corners, normals and
@@ -86,10 +65,6 @@ struct DetailPrimitives {
 
   std::size_t size() const { return triangles.empty() ? positions.size() : triangles.size(); }
 };
-
-// Barycentric weights of p (on or near triangle abc) in abc, clamped to the
-// triangle.
-Eigen::Vector3f barycentricsOf(const Vec3f& p, const Vec3f& a, const Vec3f& b, const Vec3f& c);
 
 // m in unit-cube coordinates.
 struct CoarseMesh {
@@ -149,17 +124,6 @@ struct BuiltOctree {
   std::vector<std::uint32_t> leafTriangles;
   RefinementOutcome refinement;
 };
-
-// L2,1 of the primitives in a cell (paper 3.1, Cohen-Steiner's integral):
-// the integral over M inside the cell of |n(x) - n_C|^2, n(x) M's
-// interpolated normal and n_C the unit mean normal, over M's mean triangle
-// area; for points, the sum of w_i |n_i - n_C|^2.
-double normalVariation(const DetailPrimitives& detail, const std::vector<std::uint32_t>& primitives, const Cell& cell);
-
-// The depth at which buildOctree clips M's triangles once (BuildSettings::
-// sumDepth resolved); 0 when it clips them level by level (M points, or
-// triangles as large as the coarse cells).
-int sumDepthFor(const DetailPrimitives& detail, const BuildSettings& settings);
 
 // Complete to settings.coarseDepth around m, then refined globally as
 // BuildSettings says, down to settings.maxDepth; only children that

@@ -6,6 +6,7 @@
 // sides are the means of the samples whose m normal picks each side.
 #include "bake/sampling.h"
 
+#include "bake/cell_clip.h"
 #include "core/triangle_geometry.h"
 
 #include <tbb/parallel_for.h>

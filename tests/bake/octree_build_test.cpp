@@ -1,9 +1,13 @@
-// The octree build (paper 3.1) against brute force: overlap tests against
-// dense sampling, clipped areas against Monte Carlo, the leaves' triangle
+// The octree build (paper 3.1) against brute force: the leaves' triangle
 // lists against testing every triangle, and refinement against where an
-// analytic normal field varies.
+// analytic normal field varies. Its units' own tests: cell_clip_test.cpp,
+// l21_metric_test.cpp, refinement_test.cpp.
 #include "bake/octree_build.h"
 
+#include "bake/cell_clip.h"
+#include "bake/l21_metric.h"
+
+#include "tests/bake/flat_grid.h"
 #include "tests/test_support.h"
 
 #include <gtest/gtest.h>
@@ -17,161 +21,6 @@
 
 namespace apo::octree {
 namespace {
-
-Vec3f randomPoint(std::mt19937& rng, float lo, float hi) {
-  std::uniform_real_distribution<float> u(lo, hi);
-  return {u(rng), u(rng), u(rng)};
-}
-
-// Points spread over triangle abc on a barycentric grid of `n` steps.
-std::vector<Vec3f> trianglePoints(const Vec3f& a, const Vec3f& b, const Vec3f& c, int n) {
-  std::vector<Vec3f> points;
-  for (int i = 0; i <= n; ++i)
-    for (int j = 0; i + j <= n; ++j) {
-      const float u = static_cast<float>(i) / n, v = static_cast<float>(j) / n;
-      points.push_back(a + u * (b - a) + v * (c - a));
-    }
-  return points;
-}
-
-float distanceToCell(const Vec3f& p, const Cell& cell) {
-  return (p - p.cwiseMax(cell.lower()).cwiseMin(cell.upper())).norm();
-}
-
-TEST(TriangleOverlapsBox, AgreesWithDenseSampling) {
-  std::mt19937 rng(7);
-  int overlapping = 0, apart = 0;
-  for (int trial = 0; trial < 3000; ++trial) {
-    const Cell cell{randomPoint(rng, 0.3f, 0.7f), 0.2f, 3};
-    const Vec3f a = randomPoint(rng, 0.0f, 1.0f), b = randomPoint(rng, 0.0f, 1.0f), c = randomPoint(rng, 0.0f, 1.0f);
-    const int n = 300;
-    float nearest = 1e9f;
-    for (const Vec3f& p : trianglePoints(a, b, c, n)) nearest = std::min(nearest, distanceToCell(p, cell));
-    // Grid points are at most an edge / n apart: a triangle that meets the
-    // box has a grid point within that of it.
-    const float resolution = std::max({(b - a).norm(), (c - a).norm(), (c - b).norm()}) / n;
-    const bool overlaps = triangleOverlapsBox(a, b, c, cell);
-    if (nearest == 0.0f) {
-      EXPECT_TRUE(overlaps) << "trial " << trial;
-    }
-    if (nearest > resolution) {
-      EXPECT_FALSE(overlaps) << "trial " << trial << " nearest " << nearest;
-    }
-    (overlaps ? overlapping : apart) += 1;
-  }
-  EXPECT_GT(overlapping, 300);  // both outcomes were exercised
-  EXPECT_GT(apart, 300);
-}
-
-// The eight children's mask is each child's own test, made in one pass;
-// triangles of every size against the cell (inside one child, across it,
-// far larger), and triangles lying in the cell's midplanes, which meet the
-// closed children on both sides.
-TEST(ChildrenMeeting, AgreesWithEachChildTestedApart) {
-  std::mt19937 rng(19);
-  std::uniform_real_distribution<float> scale(0.01f, 2.0f);
-  std::uniform_int_distribution<int> anyMask(0, 255);
-  int meetings = 0, misses = 0, partly = 0;
-  const auto check = [&](const Vec3f& a, const Vec3f& b, const Vec3f& c, const Cell& cell, int trial) {
-    unsigned apart = 0;
-    for (int child = 0; child < 8; ++child)
-      if (triangleOverlapsBox(a, b, c, cell.child(child))) apart |= 1u << child;
-    ASSERT_EQ(childrenMeeting(a, b, c, cell), apart) << "trial " << trial;
-    const auto wanted = static_cast<std::uint8_t>(anyMask(rng));
-    ASSERT_EQ(childrenMeeting(a, b, c, cell, wanted), apart & wanted) << "trial " << trial;
-    for (int child = 0; child < 8; ++child) ((apart >> child) & 1u ? meetings : misses) += 1;
-    partly += apart != 0 && apart != 0xFF ? 1 : 0;
-  };
-  for (int trial = 0; trial < 20000; ++trial) {
-    const Cell cell{randomPoint(rng, 0.3f, 0.7f), 0.25f, 2};
-    const Vec3f centre = cell.centre + (randomPoint(rng, 0.0f, 1.0f) - Vec3f::Constant(0.5f)) * 0.5f;
-    const float size = scale(rng) * cell.width;
-    const auto corner = [&]() -> Vec3f { return centre + (randomPoint(rng, 0.0f, 1.0f) - Vec3f::Constant(0.5f)) * size; };
-    check(corner(), corner(), corner(), cell, trial);
-  }
-  const Cell cell{Vec3f::Constant(0.5f), 0.5f, 1};
-  for (int axis = 0; axis < 3; ++axis) {
-    // In the midplane, around the centre: all eight closed children.
-    Vec3f a = Vec3f::Constant(0.3f), b = Vec3f::Constant(0.3f), c = Vec3f::Constant(0.3f);
-    a[axis] = b[axis] = c[axis] = 0.5f;
-    b[(axis + 1) % 3] = 0.9f;
-    c[(axis + 2) % 3] = 0.9f;
-    check(a, b, c, cell, -1 - axis);
-    EXPECT_EQ(std::popcount(static_cast<unsigned>(childrenMeeting(a, b, c, cell))), 8);
-  }
-  // Touching at a corner within rounding (colored_tetra.ply's m: the face
-  // x + y + z = 1.0098 through the corner (0.421875, 0.578125) of a cell's
-  // lower face, at its edge z = 0.0098): tested there as each child alone.
-  const Vec3f tetra(0.00980392192f, 0.00980392192f, 0.990196049f);
-  check(tetra, Vec3f(0.990196049f, 0.00980392192f, 0.00980392192f), Vec3f(0.00980392192f, 0.990196049f, 0.00980392192f),
-        Cell{Vec3f(0.421875f, 0.578125f, 0.015625f), 0.03125f, 5}, -4);
-  EXPECT_GT(meetings, 5000);  // every outcome was exercised
-  EXPECT_GT(misses, 50000);
-  EXPECT_GT(partly, 2000) << meetings << " " << misses;
-}
-
-TEST(ClipTriangleToCell, AreaMatchesMonteCarlo) {
-  std::mt19937 rng(11);
-  for (int trial = 0; trial < 40; ++trial) {
-    const Cell cell{Vec3f(0.5f, 0.5f, 0.5f), 0.3f, 2};
-    const Vec3f a = randomPoint(rng, 0.2f, 0.8f), b = randomPoint(rng, 0.2f, 0.8f), c = randomPoint(rng, 0.2f, 0.8f);
-    const double area = 0.5 * (b - a).cast<double>().cross((c - a).cast<double>()).norm();
-    std::uniform_real_distribution<float> u(0.0f, 1.0f);
-    const int samples = 200000;
-    int inside = 0;
-    for (int s = 0; s < samples; ++s) {
-      float r1 = u(rng), r2 = u(rng);
-      if (r1 + r2 > 1.0f) r1 = 1.0f - r1, r2 = 1.0f - r2;
-      const Vec3f p = a + r1 * (b - a) + r2 * (c - a);
-      inside += distanceToCell(p, cell) == 0.0f ? 1 : 0;
-    }
-    const double expected = area * inside / samples;
-    // Binomial standard error of the fraction, times the area, times 5.
-    const double tolerance = 5.0 * area * std::sqrt(0.25 / samples) + 1e-7;
-    EXPECT_NEAR(polygonArea(clipTriangleToCell(a, b, c, cell).view()), expected, tolerance) << "trial " << trial;
-  }
-}
-
-TEST(NormalVariation, TwoNormalsAtAnAngle) {
-  DetailPrimitives detail;
-  const double angle = 0.6;
-  detail.normals = {Vec3f(1, 0, 0), Vec3f(static_cast<float>(std::cos(angle)), static_cast<float>(std::sin(angle)), 0)};
-  detail.weights = {1.0f, 1.0f};
-  // The mean is the bisector; each normal is angle / 2 from it.
-  const double each = 2.0 - 2.0 * std::cos(angle / 2.0);
-  const Cell cell;
-  EXPECT_NEAR(normalVariation(detail, {0, 1}, cell), 2.0 * each, 1e-6);
-  EXPECT_NEAR(normalVariation(detail, {0}, cell), 0.0, 1e-12);
-  detail.weights = {3.0f, 3.0f};
-  EXPECT_NEAR(normalVariation(detail, {0, 1}, cell), 6.0 * each, 1e-5);
-}
-
-TEST(NormalVariation, IntegratesTheInterpolatedFieldOverTheTrianglePartInTheCell) {
-  // One right triangle of legs 1 in z = 0.5, corner normals (1,0,0) at the
-  // right angle and (0,0,1) at the other two: n(x, y) = (1 - u - v, 0, u + v)
-  // in barycentrics. Ground truth by dense midpoint integration.
-  // areaScale 2: weights in units of the triangle's own area (0.5).
-  const DetailPrimitives detail = DetailPrimitives::ofMesh({{0.0f, 0.0f, 0.5f}, {1.0f, 0.0f, 0.5f}, {0.0f, 1.0f, 0.5f}},
-                                                           {{0, 1, 2}}, {{1, 0, 0}, {0, 0, 1}, {0, 0, 1}}, 2.0);
-  for (const Cell& cell : {Cell{Vec3f(0.5f, 0.5f, 0.5f), 1.0f, 0}, Cell{Vec3f(0.25f, 0.25f, 0.5f), 0.5f, 1}}) {
-    const int n = 800;
-    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-    std::vector<std::pair<Eigen::Vector3d, double>> pieces;
-    for (int i = 0; i < n; ++i)
-      for (int j = 0; j < n; ++j) {
-        const double x = (i + 0.5) / n, y = (j + 0.5) / n;
-        if (x + y > 1.0 || (Vec3f(float(x), float(y), 0.5f) - cell.centre).cwiseAbs().maxCoeff() > 0.5f * cell.width) continue;
-        const Eigen::Vector3d normal(1.0 - x - y, 0.0, x + y);
-        pieces.emplace_back(normal, 1.0 / (n * n));
-        sum += normal / (n * n);
-      }
-    const Eigen::Vector3d mean = sum.normalized();
-    double expected = 0.0;
-    for (const auto& [normal, area] : pieces) expected += area * (normal - mean).squaredNorm();
-    // The midpoint grid misplaces area along the hypotenuse by about 1 / n.
-    EXPECT_NEAR(normalVariation(detail, {0}, cell), 2.0 * expected, 1e-2 * expected) << "cell width " << cell.width;
-  }
-}
 
 // m: an icosphere in the unit cube; M: the same sphere's triangles, their
 // normals bent by a bump of angular radius ~0.3 rad around +z.
@@ -447,69 +296,6 @@ TEST(BuildOctreeWithABudget, SumsAddedUpFromFineCellsGiveTheLevelByLevelTree) {
     EXPECT_NEAR(built.refinement.error, error, 1e-6 * error) << "sum depth " << sumDepth;
     EXPECT_NEAR(built.refinement.area, reference.refinement.area, 1e-9 * reference.refinement.area);
   }
-}
-
-// A flat grid of n x n squares of side `leg`, two right triangles each, at
-// height z, plus M's normals (all +z).
-DetailPrimitives flatGrid(int n, float leg, float z, DetailPrimitives grid = {}) {
-  std::vector<Vec3f> positions, normals;
-  std::vector<Triangle> triangles;
-  for (int i = 0; i <= n; ++i)
-    for (int j = 0; j <= n; ++j) {
-      positions.emplace_back(0.25f + leg * static_cast<float>(i), 0.25f + leg * static_cast<float>(j), z);
-      normals.emplace_back(0.0f, 0.0f, 1.0f);
-    }
-  const auto at = [&](int i, int j) { return static_cast<std::uint32_t>(i * (n + 1) + j); };
-  for (int i = 0; i < n; ++i)
-    for (int j = 0; j < n; ++j) {
-      triangles.push_back({at(i, j), at(i + 1, j), at(i + 1, j + 1)});
-      triangles.push_back({at(i, j), at(i + 1, j + 1), at(i, j + 1)});
-    }
-  DetailPrimitives added = DetailPrimitives::ofMesh(positions, triangles, normals, 1.0);
-  grid.triangles.insert(grid.triangles.end(), added.triangles.begin(), added.triangles.end());
-  return grid;
-}
-
-// Right triangles whose legs are 1/256 of the cube: their longest side
-// along an axis is 1/256, and the deepest cells at least twice as wide are
-// those of depth 7 (1/128).
-TEST(SumDepthFor, DeepestCellsTwiceAsWideAsMsTriangles) {
-  const DetailPrimitives grid = flatGrid(64, 1.0f / 256.0f, 0.5f);
-  BuildSettings settings;
-  settings.coarseDepth = 3;
-  settings.maxDepth = 13;
-  EXPECT_EQ(sumDepthFor(grid, settings), 7);
-  settings.maxDepth = 6;
-  EXPECT_EQ(sumDepthFor(grid, settings), 6) << "never below the maximum depth";
-  settings.maxDepth = 13;
-  settings.coarseDepth = 7;
-  EXPECT_EQ(sumDepthFor(grid, settings), 0) << "not below the coarse depth: level by level";
-  settings.coarseDepth = 3;
-  settings.sumDepth = 5;
-  EXPECT_EQ(sumDepthFor(grid, settings), 5) << "as asked";
-  settings.sumDepth = 0;
-  EXPECT_EQ(sumDepthFor(grid, settings), 0) << "as asked";
-  DetailPrimitives points;
-  points.positions = {Vec3f::Constant(0.5f)};
-  points.normals = {Vec3f::UnitZ()};
-  points.weights = {1.0f};
-  settings.sumDepth = -1;
-  EXPECT_EQ(sumDepthFor(points, settings), 0) << "points are never clipped";
-}
-
-// 32,768 triangles of side 1/600 (the mean alone picks depth 8, cells of
-// 1/256) and 32 triangles of side 1/4: at depth 8 these would be cut into
-// 64^2 pieces each, 6.2 per triangle on average, over the 4.5 allowed; at
-// depth 7, 2.5.
-TEST(SumDepthFor, AFewLargeTrianglesAmongSmallOnesRaiseIt) {
-  BuildSettings settings;
-  settings.coarseDepth = 3;
-  settings.maxDepth = 13;
-  const DetailPrimitives small = flatGrid(128, 1.0f / 600.0f, 0.5f);
-  EXPECT_EQ(sumDepthFor(small, settings), 8);
-  const DetailPrimitives mixed = flatGrid(4, 0.25f, 0.6f, small);
-  ASSERT_EQ(mixed.triangles.size(), small.triangles.size() + 32);
-  EXPECT_EQ(sumDepthFor(mixed, settings), 7);
 }
 
 // M flat in a plane between cells (z = 1/2: the root's midplane, and a face
