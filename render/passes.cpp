@@ -274,8 +274,10 @@ Result<Programs> buildPrograms(const gl::Api& api, const Layout& layout) {
                                     std::string(shaders::kSplatGeometryMain);
   const std::string lodGeometry = std::string(shaders::kLodGeometry) + std::string(shaders::kEmitSurfel) +
                                   std::string(shaders::kLodGeometryMain);
-  APO_RETURN_IF_ERROR(build(programs.splats, shaders::kSplatFragment, Walk::None, shaders::kSplatVertex, splatGeometry));
-  APO_RETURN_IF_ERROR(build(programs.pointLod, shaders::kSplatFragment, Walk::None, shaders::kLodVertex, lodGeometry));
+  const std::string splatVertex = std::string(shaders::kPointAttributes) + std::string(shaders::kSplatVertex);
+  const std::string lodVertex = std::string(shaders::kPointAttributes) + std::string(shaders::kLodVertex);
+  APO_RETURN_IF_ERROR(build(programs.splats, shaders::kSplatFragment, Walk::None, splatVertex, splatGeometry));
+  APO_RETURN_IF_ERROR(build(programs.pointLod, shaders::kSplatFragment, Walk::None, lodVertex, lodGeometry));
   APO_RETURN_IF_ERROR(build(programs.apo, shaders::kApoFragment, Walk::Plain));
   APO_RETURN_IF_ERROR(build(programs.apoCountingFetches, shaders::kApoFragment, Walk::CountingFetches));
   APO_RETURN_IF_ERROR(build(programs.exactness, shaders::kApoExactnessFragment, Walk::Plain));
