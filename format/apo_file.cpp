@@ -28,16 +28,9 @@ namespace {
 namespace fs = std::filesystem;
 using namespace header_io;
 
-// The header, in file order (docs/apo-format.md, "Header"). The writer
-// checks that it lands on these offsets, the tests read the bytes at them.
-constexpr Field kMagic{0, 8, "magic"};
-constexpr Field kVersion{8, 4, "format version"};
-constexpr Field kByteOrder{12, 4, "byte-order mark"};
-constexpr Field kHeaderSize{16, 4, "header size"};
-constexpr Field kScale{20, 8, "scale"};
-constexpr Field kOffsetX{28, 8, "offset x"};
-constexpr Field kOffsetY{36, 8, "offset y"};
-constexpr Field kOffsetZ{44, 8, "offset z"};
+// The header, in file order (docs/apo-format.md, "Header"): header_io's
+// leading fields (magic to offset z), then these. The writer checks that it
+// lands on these offsets, the tests read the bytes at them.
 constexpr Field kCoarseDepth{52, 1, "coarse depth"};
 constexpr Field kMaxDepth{53, 1, "max depth"};
 constexpr Field kCompleteDepth{54, 1, "complete depth"};
@@ -54,21 +47,18 @@ static_assert(kChecksum.offset + kChecksum.size == kHeaderBytes);
 // Version 2's extension: the origin of the scan's local frame (file
 // coordinates = origin + world coordinates of the transform above), then
 // the count of two-sided leaves (zero before version 4).
-constexpr Field kOriginX{128, 8, "origin x"};
-constexpr Field kOriginY{136, 8, "origin y"};
-constexpr Field kOriginZ{144, 8, "origin z"};
+constexpr std::array<Field, 3> kOrigin = {Field{128, 8, "origin x"}, Field{136, 8, "origin y"}, Field{144, 8, "origin z"}};
 constexpr Field kTwoSidedLeaves{152, 8, "two-sided leaves"};
 constexpr std::size_t kHeaderBytesV2 = 160;
 static_assert(kTwoSidedLeaves.offset + kTwoSidedLeaves.size == kHeaderBytesV2);
-constexpr std::array<Field, 23> kFields = {kMagic,      kVersion,     kByteOrder,    kHeaderSize,   kScale,
-                                           kOffsetX,    kOffsetY,     kOffsetZ,      kCoarseDepth,  kMaxDepth,
-                                           kCompleteDepth, kEncoding, kWidth,        kHeight,       kLeafNodes,
-                                           kInternalNodes, kUsedTexels, kPayloadSize, kChecksum,   kOriginX,
-                                           kOriginY,    kOriginZ,     kTwoSidedLeaves};
+constexpr std::array<Field, 23> kFields = {kMagic,      kVersion,   kByteOrder,  kHeaderSize,    kScale,       kOffset[0],
+                                           kOffset[1],  kOffset[2], kCoarseDepth, kMaxDepth,     kCompleteDepth, kEncoding,
+                                           kWidth,      kHeight,    kLeafNodes,  kInternalNodes, kUsedTexels,  kPayloadSize,
+                                           kChecksum,   kOrigin[0], kOrigin[1],  kOrigin[2],     kTwoSidedLeaves};
 
 // 0x89 catches 7-bit transfers, CR LF and LF catch line-ending conversions,
 // 0x1A stops a DOS `type` (the PNG signature's reasoning).
-constexpr std::array<std::uint8_t, 8> kMagicBytes = {0x89, 'A', 'P', 'O', '\r', '\n', 0x1A, '\n'};
+constexpr Magic kMagicBytes = {0x89, 'A', 'P', 'O', '\r', '\n', 0x1A, '\n'};
 // Version 1 is written when the origin is zero (the same bytes as before
 // version 2 existed), version 2 otherwise; both are read.
 constexpr std::uint32_t kFormatVersion = 1;
@@ -87,11 +77,7 @@ bool hasOrigin(std::uint32_t version) { return version >= kFormatVersionWithOrig
 std::uint32_t headerBytesOf(std::uint32_t version) { return hasOrigin(version) ? kHeaderBytesV2 : kHeaderBytes; }
 
 // The header's fields as stored.
-struct Header {
-  std::array<std::uint8_t, 8> magic{};
-  std::uint32_t version = 0, byteOrderMark = 0, headerSize = 0;
-  double scale = 0;
-  std::array<double, 3> offset{};
+struct Header : LeadingHeader {
   std::uint8_t coarseDepth = 0, maxDepth = 0, completeDepth = 0, encoding = 0;
   std::uint32_t width = 0, height = 0;
   std::uint64_t leafNodes = 0, internalNodes = 0, usedTexels = 0, payloadSize = 0;
@@ -131,14 +117,7 @@ Header headerOf(const ApoTexture& texture) {
 
 std::string headerBytes(const Header& header) {
   HeaderWriter out;
-  out.raw(kMagic, header.magic);
-  out.integer(kVersion, header.version);
-  out.integer(kByteOrder, header.byteOrderMark);
-  out.integer(kHeaderSize, header.headerSize);
-  out.float64(kScale, header.scale);
-  out.float64(kOffsetX, header.offset[0]);
-  out.float64(kOffsetY, header.offset[1]);
-  out.float64(kOffsetZ, header.offset[2]);
+  writeLeadingHeader(out, header);
   out.integer(kCoarseDepth, header.coarseDepth);
   out.integer(kMaxDepth, header.maxDepth);
   out.integer(kCompleteDepth, header.completeDepth);
@@ -151,9 +130,7 @@ std::string headerBytes(const Header& header) {
   out.integer(kPayloadSize, header.payloadSize);
   out.raw(kChecksum, header.checksum);
   if (hasOrigin(header.version)) {
-    out.float64(kOriginX, header.origin[0]);
-    out.float64(kOriginY, header.origin[1]);
-    out.float64(kOriginZ, header.origin[2]);
+    out.float64s(kOrigin, header.origin);
     out.integer(kTwoSidedLeaves, header.twoSidedLeaves);
   }
   APO_CHECK_OP(out.bytes().size(), ==, header.headerSize);
@@ -162,26 +139,10 @@ std::string headerBytes(const Header& header) {
 
 // ---- Reading ------------------------------------------------------------------
 
-Status checkMagic(const Header& header) {
-  if (header.magic != kMagicBytes)
-    return fieldError(kMagic, "expected {}, found {}: not an .apo file, or one altered by a text-mode transfer",
-                      hexBytes(kMagicBytes.data(), 8, " "), hexBytes(header.magic.data(), 8, " "));
-  return okStatus();
-}
-
-// The magic first, so any other file is reported as such even when short.
 Result<Header> parseHeader(std::string_view bytes, std::uint64_t fileSize) {
   HeaderReader in(bytes, fileSize);
   Header header;
-  APO_RETURN_IF_ERROR(in.raw(kMagic, header.magic));
-  APO_RETURN_IF_ERROR(checkMagic(header));
-  APO_RETURN_IF_ERROR(in.integer(kVersion, header.version));
-  APO_RETURN_IF_ERROR(in.integer(kByteOrder, header.byteOrderMark));
-  APO_RETURN_IF_ERROR(in.integer(kHeaderSize, header.headerSize));
-  APO_RETURN_IF_ERROR(in.float64(kScale, header.scale));
-  APO_RETURN_IF_ERROR(in.float64(kOffsetX, header.offset[0]));
-  APO_RETURN_IF_ERROR(in.float64(kOffsetY, header.offset[1]));
-  APO_RETURN_IF_ERROR(in.float64(kOffsetZ, header.offset[2]));
+  APO_RETURN_IF_ERROR(readLeadingHeader(in, kMagicBytes, ".apo", header));
   APO_RETURN_IF_ERROR(in.integer(kCoarseDepth, header.coarseDepth));
   APO_RETURN_IF_ERROR(in.integer(kMaxDepth, header.maxDepth));
   APO_RETURN_IF_ERROR(in.integer(kCompleteDepth, header.completeDepth));
@@ -194,16 +155,14 @@ Result<Header> parseHeader(std::string_view bytes, std::uint64_t fileSize) {
   APO_RETURN_IF_ERROR(in.integer(kPayloadSize, header.payloadSize));
   APO_RETURN_IF_ERROR(in.raw(kChecksum, header.checksum));
   if (hasOrigin(header.version)) {
-    APO_RETURN_IF_ERROR(in.float64(kOriginX, header.origin[0]));
-    APO_RETURN_IF_ERROR(in.float64(kOriginY, header.origin[1]));
-    APO_RETURN_IF_ERROR(in.float64(kOriginZ, header.origin[2]));
+    APO_RETURN_IF_ERROR(in.float64s(kOrigin, header.origin));
     APO_RETURN_IF_ERROR(in.integer(kTwoSidedLeaves, header.twoSidedLeaves));
   }
   return header;
 }
 
 Status checkIdentity(const Header& header) {
-  APO_RETURN_IF_ERROR(checkMagic(header));
+  APO_RETURN_IF_ERROR(checkMagic(header.magic, kMagicBytes, ".apo"));
   if (header.version < kFormatVersion || header.version > kNewestFormatVersion)
     return fieldError(kVersion, "expected {} to {} (the versions this reader knows), found {}", kFormatVersion,
                       kNewestFormatVersion, header.version);
@@ -216,23 +175,10 @@ Status checkIdentity(const Header& header) {
 
 Status checkOrigin(const Header& header) {
   if (!hasOrigin(header.version)) return okStatus();
-  const Field* fields[] = {&kOriginX, &kOriginY, &kOriginZ};
-  for (int axis = 0; axis < 3; ++axis)
-    if (!std::isfinite(header.origin[axis]))
-      return fieldError(*fields[axis], "expected a finite number, found {}", header.origin[axis]);
+  APO_RETURN_IF_ERROR(checkFinite(kOrigin, header.origin));
   if (header.version < kFormatVersionTwoSided && header.twoSidedLeaves != 0)
     return fieldError(kTwoSidedLeaves, "expected 0 in format version {} (two-sided leaves came with version 4), found {}",
                       header.version, header.twoSidedLeaves);
-  return okStatus();
-}
-
-Status checkTransform(const Header& header) {
-  if (!std::isfinite(header.scale) || !(header.scale > 0))
-    return fieldError(kScale, "expected a finite positive number, found {}", header.scale);
-  const Field* offsets[] = {&kOffsetX, &kOffsetY, &kOffsetZ};
-  for (int axis = 0; axis < 3; ++axis)
-    if (!std::isfinite(header.offset[axis]))
-      return fieldError(*offsets[axis], "expected a finite number, found {}", header.offset[axis]);
   return okStatus();
 }
 

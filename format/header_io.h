@@ -1,6 +1,7 @@
 // Internal to format/: header fields of the binary files (.apo, .n3t) at
 // documented offsets, written in order and read with errors that name the
-// field, and the SHA-256 of a payload as raw bytes.
+// field; the fields both files' headers start with; and the SHA-256 of a
+// payload as raw bytes.
 #pragma once
 
 #include "core/error.h"
@@ -8,6 +9,7 @@
 
 #include <array>
 #include <cerrno>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <new>
@@ -58,6 +60,9 @@ class HeaderWriter {
     for (std::size_t i = 0; i < sizeof(T); ++i) bytes_.push_back(static_cast<char>((value >> (8 * i)) & 0xFF));
   }
   void float64(const Field& field, double value) { integer(field, std::bit_cast<std::uint64_t>(value)); }
+  void float64s(const std::array<Field, 3>& fields, const std::array<double, 3>& values) {
+    for (int axis = 0; axis < 3; ++axis) float64(fields[axis], values[axis]);
+  }
   template <std::size_t N>
   void raw(const Field& field, const std::array<std::uint8_t, N>& value) {
     at(field, N);
@@ -104,6 +109,10 @@ class HeaderReader {
     value = std::bit_cast<double>(bits);
     return okStatus();
   }
+  Status float64s(const std::array<Field, 3>& fields, std::array<double, 3>& values) {
+    for (int axis = 0; axis < 3; ++axis) APO_RETURN_IF_ERROR(float64(fields[axis], values[axis]));
+    return okStatus();
+  }
   template <std::size_t N>
   Status raw(const Field& field, std::array<std::uint8_t, N>& value) {
     APO_RETURN_IF_ERROR(available(field));
@@ -120,6 +129,73 @@ class HeaderReader {
   std::string_view bytes_;
   std::uint64_t fileSize_;
 };
+
+// ---- The fields every binary file's header starts with ---------------------------
+// Bytes 0 to 51 of .apo and .n3t alike (docs/apo-format.md, "Header";
+// docs/n3tree-format.md, "The file"): which file it is, its version, its byte
+// order and header size, then the unit-cube transform (unit = world * scale
+// + offset). Each file's own fields follow from byte 52.
+
+using Magic = std::array<std::uint8_t, 8>;
+
+inline constexpr Field kMagic{0, 8, "magic"};
+inline constexpr Field kVersion{8, 4, "format version"};
+inline constexpr Field kByteOrder{12, 4, "byte-order mark"};
+inline constexpr Field kHeaderSize{16, 4, "header size"};
+inline constexpr Field kScale{20, 8, "scale"};
+inline constexpr std::array<Field, 3> kOffset = {Field{28, 8, "offset x"}, Field{36, 8, "offset y"},
+                                                 Field{44, 8, "offset z"}};
+inline constexpr std::size_t kLeadingHeaderBytes = 52;
+static_assert(kOffset[2].offset + kOffset[2].size == kLeadingHeaderBytes);
+
+// Those fields as stored.
+struct LeadingHeader {
+  Magic magic{};
+  std::uint32_t version = 0, byteOrderMark = 0, headerSize = 0;
+  double scale = 0;
+  std::array<double, 3> offset{};
+};
+
+inline void writeLeadingHeader(HeaderWriter& out, const LeadingHeader& header) {
+  out.raw(kMagic, header.magic);
+  out.integer(kVersion, header.version);
+  out.integer(kByteOrder, header.byteOrderMark);
+  out.integer(kHeaderSize, header.headerSize);
+  out.float64(kScale, header.scale);
+  out.float64s(kOffset, header.offset);
+}
+
+// `fileKind` names the file the magic says it is (".apo").
+inline Status checkMagic(const Magic& found, const Magic& expected, std::string_view fileKind) {
+  if (found != expected)
+    return fieldError(kMagic, "expected {}, found {}: not an {} file, or one altered by a text-mode transfer",
+                      hexBytes(expected.data(), 8, " "), hexBytes(found.data(), 8, " "), fileKind);
+  return okStatus();
+}
+
+// The magic checked first, so that any other file is reported as such even
+// when it is shorter than a header.
+inline Status readLeadingHeader(HeaderReader& in, const Magic& expected, std::string_view fileKind, LeadingHeader& header) {
+  APO_RETURN_IF_ERROR(in.raw(kMagic, header.magic));
+  APO_RETURN_IF_ERROR(checkMagic(header.magic, expected, fileKind));
+  APO_RETURN_IF_ERROR(in.integer(kVersion, header.version));
+  APO_RETURN_IF_ERROR(in.integer(kByteOrder, header.byteOrderMark));
+  APO_RETURN_IF_ERROR(in.integer(kHeaderSize, header.headerSize));
+  APO_RETURN_IF_ERROR(in.float64(kScale, header.scale));
+  return in.float64s(kOffset, header.offset);
+}
+
+inline Status checkFinite(const std::array<Field, 3>& fields, const std::array<double, 3>& values) {
+  for (int axis = 0; axis < 3; ++axis)
+    if (!std::isfinite(values[axis])) return fieldError(fields[axis], "expected a finite number, found {}", values[axis]);
+  return okStatus();
+}
+
+inline Status checkTransform(const LeadingHeader& header) {
+  if (!std::isfinite(header.scale) || !(header.scale > 0))
+    return fieldError(kScale, "expected a finite positive number, found {}", header.scale);
+  return checkFinite(kOffset, header.offset);
+}
 
 // A binary file read by `readFrom(stream, fileSize)` (which knows nothing of
 // the path): errors prefixed with the path, memory exhaustion a BadInput.

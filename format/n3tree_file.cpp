@@ -18,12 +18,8 @@ namespace {
 namespace fs = std::filesystem;
 using namespace header_io;
 
-constexpr Field kMagic{0, 8, "magic"};
-constexpr Field kVersion{8, 4, "format version"};
-constexpr Field kByteOrder{12, 4, "byte-order mark"};
-constexpr Field kHeaderSize{16, 4, "header size"};
-constexpr Field kScale{20, 8, "scale"};
-constexpr std::array<Field, 3> kOffset = {Field{28, 8, "offset x"}, Field{36, 8, "offset y"}, Field{44, 8, "offset z"}};
+// The header, in file order (docs/n3tree-format.md, "The file"): header_io's
+// leading fields (magic to offset z), then these.
 constexpr std::array<Field, 3> kOrigin = {Field{52, 8, "origin x"}, Field{60, 8, "origin y"}, Field{68, 8, "origin z"}};
 constexpr Field kN{76, 1, "N"};
 constexpr Field kLevels{77, 1, "levels"};
@@ -39,15 +35,12 @@ constexpr Field kChecksum{104, 32, "payload SHA-256"};
 constexpr std::uint32_t kHeaderBytes = 136;
 static_assert(kChecksum.offset + kChecksum.size == kHeaderBytes);
 
-constexpr std::array<std::uint8_t, 8> kMagicBytes = {0x89, 'N', '3', 'T', '\r', '\n', 0x1A, '\n'};
+constexpr Magic kMagicBytes = {0x89, 'N', '3', 'T', '\r', '\n', 0x1A, '\n'};
 constexpr std::uint32_t kFormatVersion = 1;
 constexpr std::uint8_t kDefersToCoarse = 1, kCoarseAtInternalNodes = 2;
 
-struct Header {
-  std::array<std::uint8_t, 8> magic{};
-  std::uint32_t version = 0, byteOrderMark = 0, headerSize = 0;
-  double scale = 0;
-  std::array<double, 3> offset{}, origin{};
+struct Header : LeadingHeader {
+  std::array<double, 3> origin{};
   std::uint8_t n = 0, levels = 0, encoding = 0, flags = 0;
   std::array<std::uint16_t, 3> grids{};
   std::uint16_t reserved = 0;
@@ -78,13 +71,9 @@ std::vector<std::uint8_t> payloadOf(const N3Tree& tree) {
 
 std::string headerBytes(const N3Tree& tree, const std::vector<std::uint8_t>& payload) {
   HeaderWriter out;
-  out.raw(kMagic, kMagicBytes);
-  out.integer(kVersion, kFormatVersion);
-  out.integer(kByteOrder, kByteOrderMark);
-  out.integer(kHeaderSize, kHeaderBytes);
-  out.float64(kScale, tree.transform.scale);
-  for (int axis = 0; axis < 3; ++axis) out.float64(kOffset[axis], tree.transform.offset[axis]);
-  for (int axis = 0; axis < 3; ++axis) out.float64(kOrigin[axis], tree.origin[axis]);
+  writeLeadingHeader(out, {kMagicBytes, kFormatVersion, kByteOrderMark, kHeaderBytes, tree.transform.scale,
+                           tree.transform.offset});
+  out.float64s(kOrigin, tree.origin);
   out.integer(kN, static_cast<std::uint8_t>(tree.n));
   out.integer(kLevels, static_cast<std::uint8_t>(tree.levels));
   out.integer(kEncoding, static_cast<std::uint8_t>(tree.encoding));
@@ -102,16 +91,8 @@ std::string headerBytes(const N3Tree& tree, const std::vector<std::uint8_t>& pay
 Result<Header> parseHeader(std::string_view bytes, std::uint64_t fileSize) {
   HeaderReader in(bytes, fileSize);
   Header h;
-  APO_RETURN_IF_ERROR(in.raw(kMagic, h.magic));
-  if (h.magic != kMagicBytes)
-    return fieldError(kMagic, "expected {}, found {}: not an .n3t file, or one altered by a text-mode transfer",
-                      hexBytes(kMagicBytes.data(), 8, " "), hexBytes(h.magic.data(), 8, " "));
-  APO_RETURN_IF_ERROR(in.integer(kVersion, h.version));
-  APO_RETURN_IF_ERROR(in.integer(kByteOrder, h.byteOrderMark));
-  APO_RETURN_IF_ERROR(in.integer(kHeaderSize, h.headerSize));
-  APO_RETURN_IF_ERROR(in.float64(kScale, h.scale));
-  for (int axis = 0; axis < 3; ++axis) APO_RETURN_IF_ERROR(in.float64(kOffset[axis], h.offset[axis]));
-  for (int axis = 0; axis < 3; ++axis) APO_RETURN_IF_ERROR(in.float64(kOrigin[axis], h.origin[axis]));
+  APO_RETURN_IF_ERROR(readLeadingHeader(in, kMagicBytes, ".n3t", h));
+  APO_RETURN_IF_ERROR(in.float64s(kOrigin, h.origin));
   APO_RETURN_IF_ERROR(in.integer(kN, h.n));
   APO_RETURN_IF_ERROR(in.integer(kLevels, h.levels));
   APO_RETURN_IF_ERROR(in.integer(kEncoding, h.encoding));
@@ -130,11 +111,8 @@ Status checkHeader(const Header& h, std::uint64_t fileSize) {
     return fieldError(kVersion, "expected {} (the version this reader knows), found {}", kFormatVersion, h.version);
   APO_RETURN_IF_ERROR(checkByteOrder(kByteOrder, h.byteOrderMark));
   if (h.headerSize != kHeaderBytes) return fieldError(kHeaderSize, "expected {}, found {}", kHeaderBytes, h.headerSize);
-  if (!std::isfinite(h.scale) || !(h.scale > 0)) return fieldError(kScale, "expected a finite positive number, found {}", h.scale);
-  for (int axis = 0; axis < 3; ++axis) {
-    if (!std::isfinite(h.offset[axis])) return fieldError(kOffset[axis], "expected a finite number, found {}", h.offset[axis]);
-    if (!std::isfinite(h.origin[axis])) return fieldError(kOrigin[axis], "expected a finite number, found {}", h.origin[axis]);
-  }
+  APO_RETURN_IF_ERROR(checkTransform(h));
+  APO_RETURN_IF_ERROR(checkFinite(kOrigin, h.origin));
   if (h.n != 2 && h.n != 4) return fieldError(kN, "expected 2 or 4, found {}", int{h.n});
   const int log2n = h.n == 2 ? 1 : 2;
   if (h.levels < 1 || h.levels * log2n > texel::kMaxDepth)

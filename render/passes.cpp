@@ -274,8 +274,10 @@ Result<Programs> buildPrograms(const gl::Api& api, const Layout& layout) {
                                     std::string(shaders::kSplatGeometryMain);
   const std::string lodGeometry = std::string(shaders::kLodGeometry) + std::string(shaders::kEmitSurfel) +
                                   std::string(shaders::kLodGeometryMain);
-  APO_RETURN_IF_ERROR(build(programs.splats, shaders::kSplatFragment, Walk::None, shaders::kSplatVertex, splatGeometry));
-  APO_RETURN_IF_ERROR(build(programs.pointLod, shaders::kSplatFragment, Walk::None, shaders::kLodVertex, lodGeometry));
+  const std::string splatVertex = std::string(shaders::kPointAttributes) + std::string(shaders::kSplatVertex);
+  const std::string lodVertex = std::string(shaders::kPointAttributes) + std::string(shaders::kLodVertex);
+  APO_RETURN_IF_ERROR(build(programs.splats, shaders::kSplatFragment, Walk::None, splatVertex, splatGeometry));
+  APO_RETURN_IF_ERROR(build(programs.pointLod, shaders::kSplatFragment, Walk::None, lodVertex, lodGeometry));
   APO_RETURN_IF_ERROR(build(programs.apo, shaders::kApoFragment, Walk::Plain));
   APO_RETURN_IF_ERROR(build(programs.apoCountingFetches, shaders::kApoFragment, Walk::CountingFetches));
   APO_RETURN_IF_ERROR(build(programs.exactness, shaders::kApoExactnessFragment, Walk::Plain));
@@ -512,6 +514,40 @@ std::string directionLabel(const Vec3f& direction) {
   return label;
 }
 
+// Of the image's half-width, the most the box's widest projected corner
+// takes: a margin of 2.5% of the image on each side.
+constexpr float kFramedShare = 0.95f;
+
+struct Framing {
+  float distance, nearPlane, farPlane;
+};
+
+// The eye's distance from the box's centre along `direction` (a unit
+// vector), looking at the centre with `up` through a square image of
+// `fovYDegrees`, at which the box's 8 corners fit with kFramedShare of the
+// half-width at most; and near and far planes that hold the box.
+Framing frameBox(const Aabb& box, const Vec3f& direction, const Vec3f& up, float fovYDegrees) {
+  const Vec3f centre = 0.5f * (box.min + box.max);
+  const Vec3f side = (-direction).cross(up).normalized();  // as lookAt's
+  const Vec3f imageUp = side.cross(-direction);
+  const float slope = std::tan(0.5f * radians(fovYDegrees)) * kFramedShare;
+  float distance = 0.0f, nearest = 0.0f, farthest = 0.0f;  // towards the eye
+  for (int corner = 0; corner < 8; ++corner) {
+    const Vec3f p = Vec3f((corner & 1) != 0 ? box.max.x() : box.min.x(), (corner & 2) != 0 ? box.max.y() : box.min.y(),
+                          (corner & 4) != 0 ? box.max.z() : box.min.z()) -
+                    centre;
+    const float towardsEye = p.dot(direction);
+    const float across = std::max(std::abs(p.dot(side)), std::abs(p.dot(imageUp)));
+    // Seen at depth distance - towardsEye, the corner takes across / depth of the slope
+    distance = std::max(distance, towardsEye + across / slope);
+    nearest = std::max(nearest, towardsEye);
+    farthest = std::min(farthest, towardsEye);
+  }
+  // A box with no width across the view (a segment along it) still has its eye outside.
+  distance = std::max(distance, nearest + 0.05f * (nearest - farthest) + 1e-6f);
+  return {distance, std::max(0.95f * (distance - nearest), 1e-4f * distance), 1.05f * (distance - farthest)};
+}
+
 }  // namespace
 
 std::vector<Camera> standardViews(const Aabb& box, int count, const Vec3f& scannedSide) {
@@ -524,17 +560,16 @@ std::vector<Camera> standardViews(const Aabb& box, int count, const Vec3f& scann
     std::stable_sort(directions.begin(), directions.end(),
                      [&](const Vec3f& a, const Vec3f& b) { return a.dot(scannedSide) > b.dot(scannedSide); });
   const Vec3f centre = 0.5f * (box.min + box.max);
-  const float radius = 0.5f * box.diagonal();
   std::vector<Camera> cameras;
   for (int i = 0; i < count && i < static_cast<int>(directions.size()); ++i) {
     Camera c;
-    const float distance = radius / std::sin(0.5f * radians(c.fovYDegrees)) * 1.02f;
-    c.target = centre;
-    c.eye = centre + distance * directions[i];
     // Looking along y, "up" cannot be y.
     c.up = std::abs(directions[i].y()) > 0.9f ? Vec3f::UnitZ() : Vec3f::UnitY();
-    c.nearPlane = std::max(distance - 1.05f * radius, 1e-4f * distance);
-    c.farPlane = distance + 1.05f * radius;
+    const Framing framing = frameBox(box, directions[i], c.up, c.fovYDegrees);
+    c.target = centre;
+    c.eye = centre + framing.distance * directions[i];
+    c.nearPlane = framing.nearPlane;
+    c.farPlane = framing.farPlane;
     c.label = directionLabel(directions[i]);
     if (oneSided) c.seesScannedSide = directions[i].dot(scannedSide) > 0.0f;
     cameras.push_back(c);

@@ -155,8 +155,9 @@ inline constexpr float kOneSidedShare = 0.25f;
 Vec3f scannedSide(const Scan& coarse);
 
 // The views, first `count` of: the 6 axis directions, then the 8 cube
-// diagonals; each looks at the centre of `box` from the distance at which its
-// bounding sphere fills the square image. Given a scanned side (non-zero),
+// diagonals; each looks at the centre of `box` from the distance at which the
+// box's 8 corners, as projected in that view, fill the square image but for a
+// margin (95% of the half-width at most, on the widest side). Given a scanned side (non-zero),
 // the 14 directions are ordered by how squarely they look at it (stable:
 // ties keep the order above), so that the first views see the scanned side
 // (docs/render.md, "Views and passes").

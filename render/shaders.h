@@ -1,7 +1,9 @@
 // GLSL sources of the passes (internal to render/), without their #version
 // line: passes.cpp puts "#version 450 core" before them for OSMesa, and
 // webglShaders() "#version 300 es" and precisions for WebGL2, so that the
-// APO walk is one text for both (it avoids what GLSL ES 3.00 lacks). One vertex shader for
+// APO walk is one text for both (it avoids what GLSL ES 3.00 lacks), and so
+// are the shading and the points' fragment stage (what differs, behind
+// POINT_SPRITES, which webglShaders() defines). One vertex shader for
 // every mesh; fragment shaders for M or m with their own normals, and for m
 // with the APO, whose walk repeats format/'s lookupTexture operation for
 // operation so that both land on the same node (see the exactness pass).
@@ -27,14 +29,22 @@ void main() {
 }
 )";
 
-// M as points: each point an oriented disc (surfel) of its spacing's radius,
-// flat-shaded with the point's normal. The geometry stage turns each point
-// into a square in its tangent plane (kEmitSurfel); the fragment stage cuts
-// the disc out.
-inline constexpr std::string_view kSplatVertex = R"(
+// M as points: each point a disc of its spacing's radius, flat-shaded with
+// the point's normal. In the OSMesa passes the disc is oriented (a surfel):
+// the geometry stage turns each point into a square in its tangent plane
+// (kEmitSurfel). WebGL2 has no geometry stage: the report's viewer draws a
+// round sprite facing the eye (kPointSpriteVertex, POINT_SPRITES defined).
+// Either way kSplatFragment cuts the disc out.
+
+// A point's attributes, as every points pass's vertex stage reads them.
+inline constexpr std::string_view kPointAttributes = R"(
 layout(location = 0) in vec3 position;
 layout(location = 1) in vec3 normal;
 layout(location = 2) in float radius;
+)";
+
+// After kPointAttributes: the point on to the geometry stage.
+inline constexpr std::string_view kSplatVertex = R"(
 out vec3 splatNormal;
 out float splatRadius;
 void main() {
@@ -83,11 +93,8 @@ void main() { emitSurfel(gl_in[0].gl_Position.xyz, splatNormal[0], splatRadius[0
 // finer samples lie in the object texture; the geometry shader projects the
 // errors, picks the coarsest level within the threshold (render.h
 // chooseLodLevel) and emits that level's surfels, read from the texture, as
-// kSplatGeometry does. kSplatFragment cuts the discs.
+// kSplatGeometry does. kSplatFragment cuts the discs. After kPointAttributes.
 inline constexpr std::string_view kLodVertex = R"(
-layout(location = 0) in vec3 position;
-layout(location = 1) in vec3 normal;
-layout(location = 2) in float radius;
 layout(location = 3) in vec4 errors;        // the patch's own, then the largest of levels 2, 1, 0
 layout(location = 4) in uvec4 samples;      // first surfel, then the counts of levels 2, 1, 0
 out vec3 patchNormal;
@@ -147,16 +154,28 @@ void main() {
 }
 )";
 
+// A surfel's or a sprite's disc: the point in the square it covers (from
+// the geometry stage, or the sprite's own coordinate), and which side is
+// seen: a surfel's facing, or, as a sprite has none, the normal's against
+// the eye.
 inline constexpr std::string_view kSplatFragment = R"(
 in vec3 worldPosition;
 in vec3 worldNormal;
+#ifdef POINT_SPRITES
+vec2 discPoint() { return 2.0 * gl_PointCoord - 1.0; }
+bool seesFront(vec3 n) { return dot(n, eye - worldPosition) >= 0.0; }
+#else
 in vec2 discCoordinates;
+vec2 discPoint() { return discCoordinates; }
+bool seesFront(vec3 n) { return gl_FrontFacing; }
+#endif
 layout(location = 0) out vec4 shaded;
 layout(location = 1) out vec4 normalAndCoverage;
 void main() {
-  if (dot(discCoordinates, discCoordinates) > 1.0) discard;
+  vec2 d = discPoint();
+  if (dot(d, d) > 1.0) discard;
   vec3 n = normalize(worldNormal);
-  shaded = shadeSide(n, worldPosition);
+  shaded = shadeFacing(n, worldPosition, seesFront(n));
   normalAndCoverage = vec4(n, 1.0);
 }
 )";
@@ -470,13 +489,10 @@ void main() {
 
 // ---- The report's viewer only (WebGL2, no geometry stage) ------------------
 
-// M as points in WebGL2: each point a round sprite of its disc's projected
-// diameter, facing the eye, flat-shaded with the point's normal (the OSMesa
-// passes' discs lie in the tangent plane; WebGL2 has no geometry stage).
+// M as points in WebGL2, after kPointAttributes: each point a round sprite
+// of its disc's projected diameter, facing the eye (the OSMesa passes' discs
+// lie in the tangent plane). kSplatFragment with POINT_SPRITES defined.
 inline constexpr std::string_view kPointSpriteVertex = R"(
-layout(location = 0) in vec3 position;
-layout(location = 1) in vec3 normal;
-layout(location = 2) in float radius;
 uniform mat4 viewProjection;
 uniform float pixelsPerWorldUnitAtOne;
 out vec3 worldPosition;
@@ -486,20 +502,6 @@ void main() {
   worldNormal = normal;
   gl_Position = viewProjection * vec4(position, 1.0);
   gl_PointSize = clamp(2.0 * radius * pixelsPerWorldUnitAtOne / max(gl_Position.w, 1e-6), 1.0, 1023.0);
-}
-)";
-// A sprite has no facing: the side is the normal's against the eye.
-inline constexpr std::string_view kPointSpriteFragment = R"(
-in vec3 worldPosition;
-in vec3 worldNormal;
-layout(location = 0) out vec4 shaded;
-layout(location = 1) out vec4 normalAndCoverage;
-void main() {
-  vec2 d = 2.0 * gl_PointCoord - 1.0;
-  if (dot(d, d) > 1.0) discard;
-  vec3 n = normalize(worldNormal);
-  shaded = shadeFacing(n, worldPosition, dot(n, eye - worldPosition) >= 0.0);
-  normalAndCoverage = vec4(n, 1.0);
 }
 )";
 

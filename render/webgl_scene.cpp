@@ -17,6 +17,9 @@ namespace {
 constexpr std::string_view kEsPrelude =
     "#version 300 es\nprecision highp float;\nprecision highp int;\nprecision highp usampler2D;\n";
 
+// Points are sprites facing the eye: WebGL2 has no geometry stage for surfels.
+constexpr std::string_view kPointSprites = "#define POINT_SPRITES\n";
+
 std::string es(std::initializer_list<std::string_view> parts) {
   std::string source(kEsPrelude);
   for (std::string_view part : parts) source += part;
@@ -33,8 +36,8 @@ ViewerShaders webglShaders() {
   s.meshFragment = es({shaders::kShading, shaders::kVertexNormalFragment});
   s.apoFragment = es({shaders::kShading, glslLayoutDefinitions(), shaders::kWalkCommon, shaders::kApoWalk, shaders::kFilter,
                       shaders::kApoFragment});
-  s.pointVertex = es({shaders::kPointSpriteVertex});
-  s.pointFragment = es({shaders::kShading, shaders::kPointSpriteFragment});
+  s.pointVertex = es({shaders::kPointAttributes, shaders::kPointSpriteVertex});
+  s.pointFragment = es({kPointSprites, shaders::kShading, shaders::kSplatFragment});
   s.screenVertex = es({shaders::kScreenVertex});
   s.heatFragment = es({shaders::glslViridis(), shaders::kHeatFragment});
   return s;

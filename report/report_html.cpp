@@ -51,6 +51,9 @@ std::optional<std::string> text(const Json* json) {
 
 std::optional<std::string> textAt(const Json* json, std::initializer_list<const char*> keys) { return text(at(json, keys)); }
 
+// A non-empty array.
+bool isFilledArray(const Json* json) { return json != nullptr && json->is_array() && !json->empty(); }
+
 // Any value as text (for options): strings as they are, the rest as JSON.
 std::string anyAsText(const Json& json) {
   if (json.is_string()) return json.get<std::string>();
@@ -105,6 +108,41 @@ std::string seconds(std::optional<double> s) {
 std::string percentText(std::optional<double> share) { return share ? fmt::format("{:.0f}%", 100.0 * *share) : kNone; }
 
 std::string ratioText(double ratio) { return ratio < 10.0 ? fmt::format("{:.1f}", ratio) : fmt::format("{:.0f}", ratio); }
+
+// ---- Sections and tables ----------------------------------------------------------------
+
+std::string section(const char* id, const char* title, const std::string& body) {
+  return fmt::format("<section id=\"{}\">\n<h2>{}</h2>\n", id, title) + body + "</section>\n";
+}
+
+// What stands in for something the manifest does not have.
+std::string notRunParagraph(const std::string& why) { return "<p class=\"notrun\">" + why + "</p>\n"; }
+
+std::string figureCell(const std::string& figure) { return "<td class=\"n\">" + figure + "</td>"; }
+
+// A table row: a label, then its figures aligned right.
+std::string figuresRow(const std::string& label, const std::vector<std::string>& figures) {
+  std::string html = "<tr><td>" + label + "</td>";
+  for (const std::string& figure : figures) html += figureCell(figure);
+  return html + "</tr>\n";
+}
+
+std::string row(const std::string& label, const std::string& figure) { return figuresRow(label, {figure}); }
+
+// A table's start and head: the text columns (left-aligned), then the
+// figure columns (right-aligned); the rows and kTableEnd follow.
+std::string tableStart(const char* cssClass, const std::vector<std::string>& textColumns,
+                       const std::vector<std::string>& figureColumns) {
+  std::string html = fmt::format("<table class=\"{}\">\n<thead><tr>", cssClass);
+  for (const std::string& column : textColumns) html += "<th>" + column + "</th>";
+  for (const std::string& column : figureColumns) html += "<th class=\"n\">" + column + "</th>";
+  return html + "</tr></thead>\n<tbody>\n";
+}
+
+constexpr const char* kTableEnd = "</tbody>\n</table>\n";
+
+// A table of label-and-figure rows (row()), without a head.
+std::string rowsTable(const std::string& rows) { return "<table>\n" + rows + "</table>\n"; }
 
 // ---- Manifest figures used by both pages ----------------------------------------
 
@@ -201,7 +239,7 @@ std::string missingStage(const Json& manifest, const char* stage) {
   } else {
     why = fmt::format("not run (the {} stage did not run)", stage);
   }
-  return "<p class=\"notrun\">" + why + "</p>\n";
+  return notRunParagraph(why);
 }
 
 // ---- Page skeleton ----------------------------------------------------------------
@@ -282,47 +320,118 @@ double niceStep(double max, int ticks) {
 
 std::string tickLabel(double value) { return fmt::format("{:g}", value); }
 
-// Octree nodes per depth: one bar (class "bar depth") per entry of `perDepth`.
-std::string nodesPerDepthSvg(const Json& perDepth) {
-  const std::size_t n = perDepth.size();
+// One bar: its height (none: an empty bar, still there for its tooltip) and
+// its tooltip, already escaped.
+struct Bar {
+  std::optional<double> value;
+  std::string title;
+};
+
+// Bars of one colour, one per category; `name` is its legend entry.
+struct BarSeries {
+  const char* cssClass;  // the rect's class is "bar " + cssClass
+  const char* colour;
+  std::string name;
+  std::vector<Bar> bars;
+};
+
+// A bar chart: per category (x axis) one bar of each series side by side,
+// on a y axis from 0 with round ticks. More than one series gets a legend.
+struct BarChart {
+  const char* cssClass;
+  const char* ariaLabel;
+  const char* xTitle;
+  std::vector<std::string> categories;  // the x labels, escaped
+  std::vector<BarSeries> series;
+  std::string (*tickText)(double);  // a y tick's label; also the bars' own labels
+  double tickWidth;                 // room left of the plot for the tick labels, px
+  double minSlot, maxSlot;          // the width of a category, px
+  bool labelBars;                   // each bar's value above it (when there is room, and always the tallest)
+};
+
+// The chart's largest value, 0 when it has none.
+double maxValue(const BarChart& chart) {
   double max = 0.0;
-  for (const Json& v : perDepth) max = std::max(max, number(&v).value_or(0.0));
-  const double left = 64, right = 12, top = 22, bottom = 34, plotHeight = 190;
-  const double slot = std::clamp(560.0 / static_cast<double>(std::max<std::size_t>(n, 1)), 14.0, 56.0);
-  const double width = left + right + slot * static_cast<double>(n), height = top + plotHeight + bottom;
-  const double step = niceStep(max, 4), top_value = max > 0.0 ? std::ceil(max / step) * step : 1.0;
+  for (const BarSeries& series : chart.series)
+    for (const Bar& bar : series.bars) max = std::max(max, bar.value.value_or(0.0));
+  return max;
+}
+
+std::string legendSvg(const std::vector<BarSeries>& series, double left) {
+  std::string svg;
+  for (std::size_t s = 0; s < series.size(); ++s) {
+    const double x = left + 110.0 * static_cast<double>(s);
+    svg += fmt::format("<rect x=\"{:.0f}\" y=\"6\" width=\"12\" height=\"12\" fill=\"{}\"/><text x=\"{:.0f}\" y=\"16\" "
+                       "font-size=\"12\">{}</text>",
+                       x, series[s].colour, x + 16, series[s].name);
+  }
+  return svg + "\n";
+}
+
+std::string barChartSvg(const BarChart& chart) {
+  const std::size_t n = chart.categories.size();
+  const bool legend = chart.series.size() > 1;
+  const double left = chart.tickWidth, right = 12, top = legend ? 30 : 22, bottom = 34, plotHeight = 190;
+  const double minWidth = legend ? 300.0 : 0.0;  // the legend's own width
+  const double slot = std::clamp(560.0 / static_cast<double>(std::max<std::size_t>(n, 1)), chart.minSlot, chart.maxSlot);
+  const double width = std::max(left + right + slot * static_cast<double>(n), minWidth), height = top + plotHeight + bottom;
+  const double max = maxValue(chart), step = niceStep(max, 4), topValue = max > 0.0 ? std::ceil(max / step) * step : 1.0;
+  const double groupShare = chart.series.size() == 1 ? 0.7 : 0.76;  // of a slot, the rest is the gap between categories
+  const double barWidth = slot * groupShare / static_cast<double>(std::max<std::size_t>(chart.series.size(), 1));
   std::string svg = fmt::format(
-      "<svg class=\"nodes-per-depth\" width=\"{0:.0f}\" height=\"{1:.0f}\" "
-      "viewBox=\"0 0 {0:.0f} {1:.0f}\" role=\"img\" aria-label=\"octree nodes per depth\">\n",
-      width, height);
-  // Axis and grid lines
-  for (double v = 0.0; v <= top_value + 1e-9; v += step) {
-    const double y = top + plotHeight - v / top_value * plotHeight;
+      "<svg class=\"{2}\" width=\"{0:.0f}\" height=\"{1:.0f}\" "
+      "viewBox=\"0 0 {0:.0f} {1:.0f}\" role=\"img\" aria-label=\"{3}\">\n",
+      width, height, chart.cssClass, chart.ariaLabel);
+  // Grid lines and y ticks
+  for (double v = 0.0; v <= topValue + 1e-9; v += step) {
+    const double y = top + plotHeight - v / topValue * plotHeight;
     svg += fmt::format("<line x1=\"{:.1f}\" y1=\"{:.1f}\" x2=\"{:.1f}\" y2=\"{:.1f}\" stroke=\"#e4e4e4\"/>", left, y, width - right, y);
     svg += fmt::format("<text x=\"{:.1f}\" y=\"{:.1f}\" font-size=\"11\" text-anchor=\"end\" fill=\"#555\">{}</text>\n",
-                       left - 6, y + 4, count(v));
+                       left - 6, y + 4, chart.tickText(v));
   }
-  for (std::size_t d = 0; d < n; ++d) {
-    const double value = std::max(0.0, number(&perDepth[d]).value_or(0.0));
-    double h = value / top_value * plotHeight;
-    if (value > 0.0) h = std::max(h, 1.0);
-    const double x = left + slot * static_cast<double>(d) + slot * 0.15, w = slot * 0.7;
-    const double y = top + plotHeight - h;
-    svg += fmt::format(
-        "<rect class=\"bar depth\" x=\"{:.1f}\" y=\"{:.1f}\" width=\"{:.1f}\" height=\"{:.1f}\" fill=\"#3b528b\">"
-        "<title>depth {}: {} nodes</title></rect>",
-        x, y, w, h, d, count(value));
-    if (slot >= 30.0 || value == max)
-      svg += fmt::format("<text x=\"{:.1f}\" y=\"{:.1f}\" font-size=\"10\" text-anchor=\"middle\" fill=\"#333\">{}</text>",
-                         x + w / 2, y - 4, count(value));
+  if (legend) svg += legendSvg(chart.series, left);
+  // Bars, grouped per category; a value above 0 gets at least a pixel
+  for (std::size_t c = 0; c < n; ++c) {
+    const double groupLeft = left + slot * static_cast<double>(c) + slot * (1.0 - groupShare) / 2.0;
+    for (std::size_t s = 0; s < chart.series.size(); ++s) {
+      const BarSeries& series = chart.series[s];
+      const Bar& bar = series.bars[c];
+      const double value = std::max(0.0, bar.value.value_or(0.0));
+      const double h = value > 0.0 ? std::max(value / topValue * plotHeight, 1.0) : 0.0;
+      const double x = groupLeft + barWidth * static_cast<double>(s), y = top + plotHeight - h;
+      svg += fmt::format(
+          "<rect class=\"bar {}\" x=\"{:.1f}\" y=\"{:.1f}\" width=\"{:.1f}\" height=\"{:.1f}\" fill=\"{}\">"
+          "<title>{}</title></rect>",
+          series.cssClass, x, y, barWidth, h, series.colour, bar.title);
+      if (chart.labelBars && (slot >= 30.0 || value == max))
+        svg += fmt::format("<text x=\"{:.1f}\" y=\"{:.1f}\" font-size=\"10\" text-anchor=\"middle\" fill=\"#333\">{}</text>",
+                           x + barWidth / 2, y - 4, chart.tickText(value));
+    }
     svg += fmt::format("<text x=\"{:.1f}\" y=\"{:.1f}\" font-size=\"11\" text-anchor=\"middle\" fill=\"#555\">{}</text>\n",
-                       x + w / 2, top + plotHeight + 15, d);
+                       left + slot * (static_cast<double>(c) + 0.5), top + plotHeight + 15, chart.categories[c]);
   }
+  // x axis and its title
   svg += fmt::format("<line x1=\"{0:.1f}\" y1=\"{1:.1f}\" x2=\"{2:.1f}\" y2=\"{1:.1f}\" stroke=\"#888\"/>", left,
                      top + plotHeight, width - right);
-  svg += fmt::format("<text x=\"{:.1f}\" y=\"{:.1f}\" font-size=\"12\" text-anchor=\"middle\" fill=\"#333\">depth</text>\n",
-                     left + (width - left - right) / 2, height - 3);
+  svg += fmt::format("<text x=\"{:.1f}\" y=\"{:.1f}\" font-size=\"12\" text-anchor=\"middle\" fill=\"#333\">{}</text>\n",
+                     left + (width - left - right) / 2, height - 3, chart.xTitle);
   return svg + "</svg>\n";
+}
+
+std::string countTick(double value) { return count(value); }
+
+std::string degreesTick(double value) { return tickLabel(value) + "&#176;"; }
+
+// Octree nodes per depth: one bar (class "bar depth") per entry of `perDepth`.
+std::string nodesPerDepthSvg(const Json& perDepth) {
+  BarSeries nodes{"depth", "#3b528b", "octree nodes", {}};
+  std::vector<std::string> depths;
+  for (std::size_t d = 0; d < perDepth.size(); ++d) {
+    const double value = std::max(0.0, number(&perDepth[d]).value_or(0.0));
+    nodes.bars.push_back({value, fmt::format("depth {}: {} nodes", d, count(value))});
+    depths.push_back(std::to_string(d));
+  }
+  return barChartSvg({"nodes-per-depth", "octree nodes per depth", "depth", depths, {nodes}, countTick, 64, 14, 56, true});
 }
 
 struct ViewMeans {
@@ -334,48 +443,15 @@ struct ViewMeans {
 // Mean angular error per view, the APO (class "bar apo") beside the baseline
 // (class "bar baseline").
 std::string viewErrorSvg(const std::vector<ViewMeans>& views) {
-  const std::size_t n = views.size();
-  double max = 0.0;
-  for (const ViewMeans& v : views) max = std::max({max, v.apo.value_or(0.0), v.baseline.value_or(0.0)});
-  const double left = 48, right = 12, top = 30, bottom = 34, plotHeight = 190;
-  const double slot = std::clamp(560.0 / static_cast<double>(std::max<std::size_t>(n, 1)), 22.0, 70.0);
-  const double width = std::max(left + right + slot * static_cast<double>(n), 300.0), height = top + plotHeight + bottom;
-  const double step = niceStep(max, 4), topValue = max > 0.0 ? std::ceil(max / step) * step : 1.0;
-  std::string svg = fmt::format(
-      "<svg class=\"view-errors\" width=\"{0:.0f}\" height=\"{1:.0f}\" "
-      "viewBox=\"0 0 {0:.0f} {1:.0f}\" role=\"img\" aria-label=\"mean angular error per view\">\n",
-      width, height);
-  for (double v = 0.0; v <= topValue + 1e-9; v += step) {
-    const double y = top + plotHeight - v / topValue * plotHeight;
-    svg += fmt::format("<line x1=\"{:.1f}\" y1=\"{:.1f}\" x2=\"{:.1f}\" y2=\"{:.1f}\" stroke=\"#e4e4e4\"/>", left, y, width - right, y);
-    svg += fmt::format("<text x=\"{:.1f}\" y=\"{:.1f}\" font-size=\"11\" text-anchor=\"end\" fill=\"#555\">{}&#176;</text>\n",
-                       left - 6, y + 4, tickLabel(v));
+  BarSeries apo{"apo", "#3b528b", "m with APO", {}}, baseline{"baseline", "#e07b39", "m alone (baseline)", {}};
+  std::vector<std::string> labels;
+  for (const ViewMeans& view : views) {
+    apo.bars.push_back({view.apo, fmt::format("view {:02d}, m with APO: {}", view.index, degrees(view.apo))});
+    baseline.bars.push_back({view.baseline, fmt::format("view {:02d}, m alone: {}", view.index, degrees(view.baseline))});
+    labels.push_back(fmt::format("{:02d}", view.index));
   }
-  // Legend
-  svg += fmt::format(
-      "<rect x=\"{0:.0f}\" y=\"6\" width=\"12\" height=\"12\" fill=\"#3b528b\"/><text x=\"{1:.0f}\" y=\"16\" "
-      "font-size=\"12\">m with APO</text><rect x=\"{2:.0f}\" y=\"6\" width=\"12\" height=\"12\" fill=\"#e07b39\"/>"
-      "<text x=\"{3:.0f}\" y=\"16\" font-size=\"12\">m alone (baseline)</text>\n",
-      left, left + 16, left + 110, left + 126);
-  for (std::size_t i = 0; i < n; ++i) {
-    const double x0 = left + slot * static_cast<double>(i) + slot * 0.12, w = slot * 0.38;
-    const auto bar = [&](const char* cls, const char* fill, std::optional<double> value, double x, const char* what) {
-      const double h = value ? std::max(0.0, *value) / topValue * plotHeight : 0.0;
-      svg += fmt::format(
-          "<rect class=\"bar {}\" x=\"{:.1f}\" y=\"{:.1f}\" width=\"{:.1f}\" height=\"{:.1f}\" fill=\"{}\">"
-          "<title>view {:02d}, {}: {}</title></rect>",
-          cls, x, top + plotHeight - h, w, h, fill, views[i].index, what, degrees(value));
-    };
-    bar("apo", "#3b528b", views[i].apo, x0, "m with APO");
-    bar("baseline", "#e07b39", views[i].baseline, x0 + w, "m alone");
-    svg += fmt::format("<text x=\"{:.1f}\" y=\"{:.1f}\" font-size=\"11\" text-anchor=\"middle\" fill=\"#555\">{:02d}</text>\n",
-                       x0 + w, top + plotHeight + 15, views[i].index);
-  }
-  svg += fmt::format("<line x1=\"{0:.1f}\" y1=\"{1:.1f}\" x2=\"{2:.1f}\" y2=\"{1:.1f}\" stroke=\"#888\"/>", left,
-                     top + plotHeight, width - right);
-  svg += fmt::format("<text x=\"{:.1f}\" y=\"{:.1f}\" font-size=\"12\" text-anchor=\"middle\" fill=\"#333\">view</text>\n",
-                     left + (width - left - right) / 2, height - 3);
-  return svg + "</svg>\n";
+  return barChartSvg(
+      {"view-errors", "mean angular error per view", "view", labels, {apo, baseline}, degreesTick, 48, 22, 70, false});
 }
 
 // The heat maps' scale: viridis (render/metrics.cpp) from 0 to kReportHeatMapDegrees.
@@ -587,24 +663,20 @@ std::string interactiveSection(const Json& manifest) {
   const std::optional<std::string> viewer = textAt(&manifest, {"files", "viewer"});
   if (!viewer) return {};
   const std::string src = htmlEscape(urlPathEscape(*viewer));
-  std::string html = "<section id=\"interactive\">\n<h2>Interactive view</h2>\n";
-  html += fmt::format("<p>m with the APO walked per pixel in WebGL2, beside m alone, {} and the heat map; turn, zoom, move "
-                      "the light (<a href=\"{}\">open it alone</a>, {}). Without WebGL2 it shows the static views below "
-                      "and says why.</p>\n",
-                      escaped(textAt(&manifest, {"results", "viewer", "detail"})), src,
-                      bytesText(numberAt(&manifest, {"results", "viewer", "bytes"})));
+  std::string html = fmt::format(
+      "<p>m with the APO walked per pixel in WebGL2, beside m alone, {} and the heat map; turn, zoom, move "
+      "the light (<a href=\"{}\">open it alone</a>, {}). Without WebGL2 it shows the static views below "
+      "and says why.</p>\n",
+      escaped(textAt(&manifest, {"results", "viewer", "detail"})), src, bytesText(numberAt(&manifest, {"results", "viewer", "bytes"})));
   html += "<iframe class=\"viewer\" src=\"" + src + "\" title=\"interactive view\"></iframe>\n";
-  return html + "</section>\n";
+  return section("interactive", "Interactive view", html);
 }
 
 std::string viewsSection(const Json& manifest) {
-  std::string html = "<section id=\"views\">\n<h2>Views</h2>\n";
   const Json* render = results(manifest, "render");
   const Json* views = child(render, "views");
-  if (views == nullptr || !views->is_array() || views->empty()) {
-    if (render != nullptr) return html + "<p class=\"notrun\">no views recorded</p>\n</section>\n";
-    return html + missingStage(manifest, "render") + "</section>\n";
-  }
+  if (!isFilledArray(views))
+    return section("views", "Views", render != nullptr ? notRunParagraph("no views recorded") : missingStage(manifest, "render"));
   const std::optional<double> referencePixels = numberAt(render, {"overall", "apo", "pixels"});
   const bool hasReference = !(referencePixels && *referencePixels == 0.0);
   const std::optional<double> sizeOption = numberAt(render, {"options", "size"});
@@ -612,7 +684,7 @@ std::string viewsSection(const Json& manifest) {
   const std::string folder = rendersFolder(manifest);
   const bool pointsReference = referenceIsPoints(manifest);
 
-  html += "<p>Each row: " + referenceName(manifest) +
+  std::string html = "<p>Each row: " + referenceName(manifest) +
           " (reference), the coarse mesh m with its own normals (baseline), m with the APO, and the APO's angular "
           "error against the reference per pixel.</p>\n";
   html += "<div class=\"legend\"><span>heat map: angular error of m with the APO against the reference</span>" +
@@ -655,32 +727,31 @@ std::string viewsSection(const Json& manifest) {
       html += missingImageCell("APO error", "no reference");
     html += "</div>\n</div>\n";
   }
-  return html + "</section>\n";
+  return section("views", "Views", html);
 }
 
 std::string chartsSection(const Json& manifest) {
-  std::string html = "<section id=\"charts\">\n<h2>Charts</h2>\n<div class=\"charts\">\n";
-  html += "<div class=\"chart\"><h3>Mean angular error per view</h3>\n";
+  std::string html = "<div class=\"charts\">\n<div class=\"chart\"><h3>Mean angular error per view</h3>\n";
   const Json* views = at(results(manifest, "render"), {"views"});
-  if (views != nullptr && views->is_array() && !views->empty())
+  if (isFilledArray(views))
     html += viewErrorSvg(viewMeans(views));
   else
     html += missingStage(manifest, "render");
   html += "</div>\n<div class=\"chart\"><h3>Octree nodes per depth</h3>\n";
   const Json* bake = results(manifest, "bake");
   const Json* perDepth = at(bake, {"nodes", "per_depth"});
-  if (perDepth != nullptr && perDepth->is_array() && !perDepth->empty()) {
+  if (isFilledArray(perDepth)) {
     html += nodesPerDepthSvg(*perDepth);
     double total = 0.0;
     for (const Json& v : *perDepth) total += number(&v).value_or(0.0);
     html += fmt::format("<p class=\"meta\">{} nodes: {} leaves, {} internal; depth 0 is the root cell.</p>\n",
                         count(total), count(numberAt(bake, {"nodes", "leaves"})), count(numberAt(bake, {"nodes", "internal"})));
   } else if (bake != nullptr) {
-    html += "<p class=\"notrun\">no nodes per depth recorded</p>\n";
+    html += notRunParagraph("no nodes per depth recorded");
   } else {
     html += missingStage(manifest, "bake");
   }
-  return html + "</div>\n</div>\n</section>\n";
+  return section("charts", "Charts", html + "</div>\n</div>\n");
 }
 
 // Mean over the views of one image figure (nulls and missing values skipped).
@@ -706,13 +777,11 @@ std::string psnrText(const Json& view, const char* pass) {
 // truth from the 8 nearest scan normals), beside the figures against M.
 std::string againstScanTable(const Json* scan) {
   if (scan == nullptr || !scan->is_object()) return "";
-  std::string html =
-      "<table class=\"metrics\">\n<thead><tr><th>against the scan's own points</th><th class=\"n\">m with APO "
-      "(filtered)</th><th class=\"n\">m alone</th><th class=\"n\">M</th></tr></thead>\n<tbody>\n";
+  std::string html = tableStart("metrics", {"against the scan's own points"}, {"m with APO (filtered)", "m alone", "M"});
   for (const auto& [label, key] : {std::pair{"mean", "mean"}, {"median", "median"}, {"95th percentile", "p95"}})
-    html += fmt::format("<tr><td>angular error, {}</td><td class=\"n\">{}</td><td class=\"n\">{}</td><td class=\"n\">{}</td></tr>\n",
-                        label, degrees(numberAt(scan, {"apo_filtered", key})), degrees(numberAt(scan, {"m", key})),
-                        degrees(numberAt(scan, {"M", "normal_degrees", key})));
+    html += figuresRow(std::string("angular error, ") + label,
+                       {degrees(numberAt(scan, {"apo_filtered", key})), degrees(numberAt(scan, {"m", key})),
+                        degrees(numberAt(scan, {"M", "normal_degrees", key}))});
   html += fmt::format("<tr><td>probes on m (kept: over scan points)</td><td class=\"n\" colspan=\"2\">{} of {}</td>"
                       "<td class=\"n\">{} scan points</td></tr>\n",
                       count(numberAt(scan, {"probes_kept"})), count(numberAt(scan, {"probes"})),
@@ -720,7 +789,7 @@ std::string againstScanTable(const Json* scan) {
   html += fmt::format("<tr><td>scan points' distance to M, mean / 95th percentile (of the diagonal)</td>"
                       "<td class=\"n\" colspan=\"3\">{} / {}</td></tr>\n",
                       fixed(numberAt(scan, {"M", "mean_distance"}), 5), fixed(numberAt(scan, {"M", "p95_distance"}), 5));
-  return html + "</tbody>\n</table>\n";
+  return html + kTableEnd;
 }
 
 // Auto baked the APO from the points but the renders' reference was M (runs
@@ -735,89 +804,80 @@ std::string bakedFromPointsNote(const Json& manifest) {
          "against the scan judge it.</p>\n";
 }
 
-std::string metricsSection(const Json& manifest) {
-  std::string html = "<section id=\"metrics\">\n<h2>Metrics</h2>\n";
-  const Json* render = results(manifest, "render");
-  if (render == nullptr) return html + missingStage(manifest, "render") + "</section>\n";
-  const Json* overall = child(render, "overall");
-  const Json* views = child(render, "views");
-  html += "<div class=\"grid2\">\n<table class=\"metrics\">\n<thead><tr><th>over all views</th><th class=\"n\">m with APO</th>"
-          "<th class=\"n\">m alone (baseline)</th></tr></thead>\n<tbody>\n";
-  const auto angleRow = [&](const char* label, const char* key) {
-    html += fmt::format("<tr><td>angular error, {}</td><td class=\"n\">{}</td><td class=\"n\">{}</td></tr>\n", label,
-                        degrees(numberAt(overall, {"apo", key})), degrees(numberAt(overall, {"baseline", key})));
-  };
-  angleRow("mean", "mean");
-  angleRow("median", "median");
-  angleRow("95th percentile", "p95");
-  angleRow("max", "max");
-  html += fmt::format("<tr><td>pixels compared</td><td class=\"n\">{}</td><td class=\"n\">{}</td></tr>\n",
-                      count(numberAt(overall, {"apo", "pixels"})), count(numberAt(overall, {"baseline", "pixels"})));
+// The APO's and the baseline's figures over all views.
+std::string overallTable(const Json* overall, const Json* views) {
+  std::string html = tableStart("metrics", {"over all views"}, {"m with APO", "m alone (baseline)"});
+  for (const auto& [label, key] : {std::pair{"mean", "mean"}, {"median", "median"}, {"95th percentile", "p95"}, {"max", "max"}})
+    html += figuresRow(std::string("angular error, ") + label,
+                       {degrees(numberAt(overall, {"apo", key})), degrees(numberAt(overall, {"baseline", key}))});
+  html += figuresRow("pixels compared",
+                     {count(numberAt(overall, {"apo", "pixels"})), count(numberAt(overall, {"baseline", "pixels"}))});
   html += fmt::format("<tr><td>baseline mean / APO mean</td><td class=\"n\" colspan=\"2\">{}</td></tr>\n",
                       fixed(numberAt(overall, {"baseline_over_apo"}), 2));
-  const auto imageRow = [&](const char* label, const char* figure, int digits) {
-    html += fmt::format("<tr><td>{} (mean over views)</td><td class=\"n\">{}</td><td class=\"n\">{}</td></tr>\n", label,
-                        fixed(meanOverViews(views, "apo", figure), digits), fixed(meanOverViews(views, "baseline", figure), digits));
+  struct ImageFigure {
+    const char* label;
+    const char* key;
+    int digits;
   };
-  imageRow("image MAE, of 255", "mean_absolute_error", 2);
-  imageRow("image PSNR, dB", "psnr_db", 1);
-  imageRow("image SSIM", "ssim", 3);
-  imageRow("silhouette mismatch", "silhouette_mismatch", 4);
-  html += "</tbody>\n</table>\n";
+  for (const ImageFigure& figure : {ImageFigure{"image MAE, of 255", "mean_absolute_error", 2}, {"image PSNR, dB", "psnr_db", 1},
+                                    {"image SSIM", "ssim", 3}, {"silhouette mismatch", "silhouette_mismatch", 4}})
+    html += figuresRow(std::string(figure.label) + " (mean over views)",
+                       {fixed(meanOverViews(views, "apo", figure.key), figure.digits),
+                        fixed(meanOverViews(views, "baseline", figure.key), figure.digits)});
+  return html + kTableEnd;
+}
+
+// One row per view; the columns against the scan only for a point scan.
+std::string perViewTable(const Json& views, const std::vector<ViewMeans>& means) {
+  const bool scanColumns = hasScanMeans(means);
+  std::vector<std::string> columns;
+  if (scanColumns) columns = {"APO mean, against the scan", "baseline mean, against the scan"};
+  columns.insert(columns.end(), {"APO mean", "baseline mean", "APO MAE", "baseline MAE", "APO PSNR dB", "baseline PSNR dB",
+                                 "APO SSIM", "baseline SSIM"});
+  std::string html = tableStart("per-view", {"view"}, columns);
+  for (std::size_t i = 0; i < views.size(); ++i) {
+    const Json& view = views[i];
+    std::vector<std::string> figures;
+    if (scanColumns) figures = {degrees(means[i].apoScan), degrees(means[i].baselineScan)};
+    figures.insert(figures.end(),
+                   {degrees(means[i].apo), degrees(means[i].baseline),
+                    fixed(numberAt(&view, {"apo", "image", "mean_absolute_error"}), 2),
+                    fixed(numberAt(&view, {"baseline", "image", "mean_absolute_error"}), 2), psnrText(view, "apo"),
+                    psnrText(view, "baseline"), fixed(numberAt(&view, {"apo", "image", "ssim"}), 3),
+                    fixed(numberAt(&view, {"baseline", "image", "ssim"}), 3)});
+    html += figuresRow(fmt::format("{:02d}", means[i].index), figures);
+  }
+  return html + kTableEnd;
+}
+
+std::string metricsSection(const Json& manifest) {
+  const Json* render = results(manifest, "render");
+  if (render == nullptr) return section("metrics", "Metrics", missingStage(manifest, "render"));
+  const Json* views = child(render, "views");
+  std::string html = "<div class=\"grid2\">\n" + overallTable(child(render, "overall"), views);
   html += bakedFromPointsNote(manifest);
   html += againstScanTable(child(render, "against_scan"));
-
-  if (views != nullptr && views->is_array() && !views->empty()) {
-    const std::vector<ViewMeans> means = viewMeans(render, views);
-    const bool scanColumns = hasScanMeans(means);
-    html += "<table class=\"per-view\">\n<thead><tr><th>view</th>";
-    if (scanColumns) html += "<th class=\"n\">APO mean, against the scan</th><th class=\"n\">baseline mean, against the scan</th>";
-    html += "<th class=\"n\">APO mean</th><th class=\"n\">baseline mean</th>"
-            "<th class=\"n\">APO MAE</th><th class=\"n\">baseline MAE</th><th class=\"n\">APO PSNR dB</th>"
-            "<th class=\"n\">baseline PSNR dB</th><th class=\"n\">APO SSIM</th><th class=\"n\">baseline SSIM</th></tr></thead>\n<tbody>\n";
-    for (std::size_t i = 0; i < views->size(); ++i) {
-      const Json& view = (*views)[i];
-      const std::string scanCells =
-          scanColumns ? fmt::format("<td class=\"n\">{}</td><td class=\"n\">{}</td>", degrees(means[i].apoScan),
-                                    degrees(means[i].baselineScan))
-                      : std::string();
-      html += fmt::format(
-          "<tr><td>{:02d}</td>{}<td class=\"n\">{}</td><td class=\"n\">{}</td><td class=\"n\">{}</td><td class=\"n\">{}</td>"
-          "<td class=\"n\">{}</td><td class=\"n\">{}</td><td class=\"n\">{}</td><td class=\"n\">{}</td></tr>\n",
-          means[i].index, scanCells, degrees(means[i].apo), degrees(means[i].baseline),
-          fixed(numberAt(&view, {"apo", "image", "mean_absolute_error"}), 2),
-          fixed(numberAt(&view, {"baseline", "image", "mean_absolute_error"}), 2), psnrText(view, "apo"),
-          psnrText(view, "baseline"), fixed(numberAt(&view, {"apo", "image", "ssim"}), 3),
-          fixed(numberAt(&view, {"baseline", "image", "ssim"}), 3));
-    }
-    html += "</tbody>\n</table>\n";
-  }
-  return html + "</div>\n</section>\n";
+  if (isFilledArray(views)) html += perViewTable(*views, viewMeans(render, views));
+  return section("metrics", "Metrics", html + "</div>\n");
 }
 
 std::string stagesSection(const Json& manifest) {
-  std::string html = "<section id=\"stages\">\n<h2>Stages: time and memory</h2>\n";
   const Json* stages = child(&manifest, "stages");
-  if (stages == nullptr || !stages->is_array() || stages->empty()) return html + "<p class=\"notrun\">no stages recorded (not run)</p>\n</section>\n";
-  html += "<table class=\"stages\">\n<thead><tr><th>stage</th><th>status</th><th class=\"n\">wall time</th>"
-          "<th class=\"n\">peak memory</th></tr></thead>\n<tbody>\n";
+  if (!isFilledArray(stages))
+    return section("stages", "Stages: time and memory", notRunParagraph("no stages recorded (not run)"));
+  std::string html = tableStart("stages", {"stage", "status"}, {"wall time", "peak memory"});
   for (const Json& stage : *stages) {
     const std::string status = textAt(&stage, {"status"}).value_or("unknown");
     const bool known = status == "succeeded" || status == "failed" || status == "skipped" || status == "not_run";
     const bool ran = status == "succeeded" || status == "failed";
-    html += fmt::format("<tr><td>{}</td><td class=\"status-{}\">{}</td><td class=\"n\">{}</td><td class=\"n\">{}</td></tr>\n",
-                        escaped(textAt(&stage, {"name"})), known ? status : "unknown",
-                        status == "not_run" ? "not run" : htmlEscape(status),
-                        ran ? seconds(numberAt(&stage, {"seconds"})) : kNone,
-                        ran ? bytesText(numberAt(&stage, {"peak_memory_bytes"})) : kNone);
+    html += fmt::format("<tr><td>{}</td><td class=\"status-{}\">{}</td>{}{}</tr>\n", escaped(textAt(&stage, {"name"})),
+                        known ? status : "unknown", status == "not_run" ? "not run" : htmlEscape(status),
+                        figureCell(ran ? seconds(numberAt(&stage, {"seconds"})) : kNone),
+                        figureCell(ran ? bytesText(numberAt(&stage, {"peak_memory_bytes"})) : kNone));
   }
   html += fmt::format("<tr><td><b>total</b></td><td></td><td class=\"n\"><b>{}</b></td><td></td></tr>\n",
                       seconds(totalSeconds(manifest)));
-  return html + "</tbody>\n</table>\n</section>\n";
-}
-
-std::string row(const std::string& label, const std::string& value) {
-  return "<tr><td>" + label + "</td><td class=\"n\">" + value + "</td></tr>\n";
+  return section("stages", "Stages: time and memory", html + kTableEnd);
 }
 
 // What ingest decided on its own about a mesh (surface or scans, windings
@@ -856,56 +916,56 @@ std::string ingestDecisionRows(const Json* ingest) {
   return html;
 }
 
-std::string meshesSection(const Json& manifest) {
-  std::string html = "<section id=\"meshes\">\n<h2>Scan and meshes</h2>\n<div class=\"grid2\">\n";
+// One titled part of a section.
+std::string part(const char* title, const std::string& body) {
+  return fmt::format("<div><h3>{}</h3>\n", title) + body + "</div>\n";
+}
+
+std::string scanPart(const Json& manifest) {
   const Json* ingest = results(manifest, "ingest");
-  html += "<div><h3>Scan (ingest)</h3>\n";
-  if (ingest != nullptr) {
-    html += "<table>\n";
-    html += row("kind", escaped(textAt(ingest, {"kind"})));
-    html += row("format", escaped(textAt(ingest, {"input", "format"})));
-    html += row("points read", count(numberAt(ingest, {"counts", "points_in"})));
-    html += row("points after cleaning", count(numberAt(ingest, {"counts", "points_out"})));
-    html += row("triangles read", count(numberAt(ingest, {"counts", "triangles_in"})));
-    html += row("normals", escaped(textAt(ingest, {"normals", "source"})) + ", oriented by " +
-                               escaped(textAt(ingest, {"normals", "orientation"})));
-    html += ingestDecisionRows(ingest);
-    html += row("bounding box diagonal", fixed(numberAt(ingest, {"bounding_box", "diagonal"}), 4));
-    html += "</table>\n";
-  } else {
-    html += missingStage(manifest, "ingest");
-  }
-  html += "</div>\n<div><h3>Dense mesh M</h3>\n";
+  if (ingest == nullptr) return part("Scan (ingest)", missingStage(manifest, "ingest"));
+  std::string rows = row("kind", escaped(textAt(ingest, {"kind"})));
+  rows += row("format", escaped(textAt(ingest, {"input", "format"})));
+  rows += row("points read", count(numberAt(ingest, {"counts", "points_in"})));
+  rows += row("points after cleaning", count(numberAt(ingest, {"counts", "points_out"})));
+  rows += row("triangles read", count(numberAt(ingest, {"counts", "triangles_in"})));
+  rows += row("normals", escaped(textAt(ingest, {"normals", "source"})) + ", oriented by " +
+                             escaped(textAt(ingest, {"normals", "orientation"})));
+  rows += ingestDecisionRows(ingest);
+  rows += row("bounding box diagonal", fixed(numberAt(ingest, {"bounding_box", "diagonal"}), 4));
+  return part("Scan (ingest)", rowsTable(rows));
+}
+
+std::string denseMeshPart(const Json& manifest) {
   const Json* reconstruct = results(manifest, "reconstruct");
   if (reconstruct != nullptr) {
-    html += "<table>\n";
-    html += row("triangles", count(numberAt(reconstruct, {"mesh", "triangles"})));
-    html += row("vertices", count(numberAt(reconstruct, {"mesh", "vertices"})));
-    html += row("method", escaped(textAt(reconstruct, {"method"})));
-    html += row("points used", count(numberAt(reconstruct, {"points", "used"})));
-    html += row("mean point-to-M distance (of bbox diagonal)", fixed(numberAt(reconstruct, {"points_to_mesh", "mean"}), 5));
-    html += "</table>\n";
-  } else if (stageStatus(manifest, "reconstruct") == "skipped" && denseTriangles(manifest)) {
-    html += "<p>The scan is a mesh: M is the input mesh (reconstruction skipped).</p>\n<table>\n";
-    html += row("triangles", count(denseTriangles(manifest)));
-    html += "</table>\n";
-  } else {
-    html += missingStage(manifest, "reconstruct");
+    std::string rows = row("triangles", count(numberAt(reconstruct, {"mesh", "triangles"})));
+    rows += row("vertices", count(numberAt(reconstruct, {"mesh", "vertices"})));
+    rows += row("method", escaped(textAt(reconstruct, {"method"})));
+    rows += row("points used", count(numberAt(reconstruct, {"points", "used"})));
+    rows += row("mean point-to-M distance (of bbox diagonal)", fixed(numberAt(reconstruct, {"points_to_mesh", "mean"}), 5));
+    return part("Dense mesh M", rowsTable(rows));
   }
-  html += "</div>\n<div><h3>Coarse mesh m</h3>\n";
+  if (stageStatus(manifest, "reconstruct") == "skipped" && denseTriangles(manifest))
+    return part("Dense mesh M", "<p>The scan is a mesh: M is the input mesh (reconstruction skipped).</p>\n" +
+                                    rowsTable(row("triangles", count(denseTriangles(manifest)))));
+  return part("Dense mesh M", missingStage(manifest, "reconstruct"));
+}
+
+std::string coarseMeshPart(const Json& manifest) {
   const Json* simplify = results(manifest, "simplify");
-  if (simplify != nullptr) {
-    html += "<table>\n";
-    html += row("triangles", count(coarseTriangles(manifest)));
-    html += row("target", count(numberAt(simplify, {"faces", "target"})));
-    html += row("vertices", count(numberAt(simplify, {"mesh", "vertices"})));
-    html += row("policy", escaped(textAt(simplify, {"policy"})));
-    html += row("Hausdorff distance to M (of bbox diagonal)", fixed(numberAt(simplify, {"distance_to_input", "hausdorff"}), 5));
-    html += "</table>\n";
-  } else {
-    html += missingStage(manifest, "simplify");
-  }
-  return html + "</div>\n</div>\n</section>\n";
+  if (simplify == nullptr) return part("Coarse mesh m", missingStage(manifest, "simplify"));
+  std::string rows = row("triangles", count(coarseTriangles(manifest)));
+  rows += row("target", count(numberAt(simplify, {"faces", "target"})));
+  rows += row("vertices", count(numberAt(simplify, {"mesh", "vertices"})));
+  rows += row("policy", escaped(textAt(simplify, {"policy"})));
+  rows += row("Hausdorff distance to M (of bbox diagonal)", fixed(numberAt(simplify, {"distance_to_input", "hausdorff"}), 5));
+  return part("Coarse mesh m", rowsTable(rows));
+}
+
+std::string meshesSection(const Json& manifest) {
+  return section("meshes", "Scan and meshes",
+                 "<div class=\"grid2\">\n" + scanPart(manifest) + denseMeshPart(manifest) + coarseMeshPart(manifest) + "</div>\n");
 }
 
 // Why the APO was baked from what it was baked from (--detail-source), with
@@ -936,85 +996,85 @@ std::string faceOrderRow(const Json* bake) {
 }
 
 std::string bakeSection(const Json& manifest) {
-  std::string html = "<section id=\"bake\">\n<h2>Bake</h2>\n";
   const Json* bake = results(manifest, "bake");
-  if (bake == nullptr) return html + missingStage(manifest, "bake") + "</section>\n";
+  if (bake == nullptr) return section("bake", "Bake", missingStage(manifest, "bake"));
   const std::optional<double> rays = numberAt(bake, {"sampling", "rays"});
   const std::optional<double> hit = numberAt(bake, {"sampling", "samples_hit"});
   const std::optional<double> fallback = numberAt(bake, {"sampling", "samples_fallback"});
   const Json* perDepth = at(bake, {"nodes", "per_depth"});
-  html += "<div class=\"grid2\">\n<table>\n";
-  html += row("detail M", escaped(textAt(bake, {"detail", "kind"})) + ", " + count(numberAt(bake, {"detail", "primitives"})) + " primitives");
-  html += detailChoiceRow(child(bake, "detail_source"));
-  html += faceOrderRow(bake);
-  html += row("rays cast", count(rays));
-  html += row("samples hit by a ray", count(hit));
+  std::string rows = row("detail M", escaped(textAt(bake, {"detail", "kind"})) + ", " +
+                                         count(numberAt(bake, {"detail", "primitives"})) + " primitives");
+  rows += detailChoiceRow(child(bake, "detail_source"));
+  rows += faceOrderRow(bake);
+  rows += row("rays cast", count(rays));
+  rows += row("samples hit by a ray", count(hit));
   std::string fallbackText = count(fallback);
   if (hit && fallback && *hit + *fallback > 0.0)
     fallbackText += fmt::format(" ({:.2f}%)", 100.0 * *fallback / (*hit + *fallback));
-  html += row("samples by closest point (ray missed)", fallbackText);
-  html += row("octree depth", perDepth != nullptr && perDepth->is_array() && !perDepth->empty()
-                                  ? std::to_string(perDepth->size() - 1)
-                                  : std::string(kNone));
-  html += row("leaves", count(numberAt(bake, {"nodes", "leaves"})));
-  html += row("texture", count(numberAt(bake, {"texture", "width"})) + " &times; " + count(numberAt(bake, {"texture", "height"})) +
+  rows += row("samples by closest point (ray missed)", fallbackText);
+  rows += row("octree depth", isFilledArray(perDepth) ? std::to_string(perDepth->size() - 1) : std::string(kNone));
+  rows += row("leaves", count(numberAt(bake, {"nodes", "leaves"})));
+  rows += row("texture", count(numberAt(bake, {"texture", "width"})) + " &times; " + count(numberAt(bake, {"texture", "height"})) +
                              " texels, " + bytesText(numberAt(bake, {"texture", "bytes"})));
-  html += "</table>\n<table>\n<thead><tr><th>bake step</th><th class=\"n\">seconds</th></tr></thead>\n";
+  std::string steps = tableStart("bake-steps", {"bake step"}, {"seconds"});
   for (const char* step : {"setup", "build", "sample", "encode", "total"})
-    html += row(step, seconds(numberAt(bake, {"seconds", step})));
-  html += row("peak memory", bytesText(numberAt(bake, {"peak_memory_bytes"})));
-  return html + "</table>\n</div>\n</section>\n";
+    steps += row(step, seconds(numberAt(bake, {"seconds", step})));
+  steps += row("peak memory", bytesText(numberAt(bake, {"peak_memory_bytes"})));
+  return section("bake", "Bake", "<div class=\"grid2\">\n" + rowsTable(rows) + steps + kTableEnd + "</div>\n");
 }
 
 std::string renderCostSection(const Json& manifest) {
-  std::string html = "<section id=\"render-cost\">\n<h2>Render cost</h2>\n";
   const Json* render = results(manifest, "render");
-  if (render == nullptr) return html + missingStage(manifest, "render") + "</section>\n";
+  if (render == nullptr) return section("render-cost", "Render cost", missingStage(manifest, "render"));
   const Json* cost = at(render, {"overall", "cost"});
   const Json* options = child(render, "options");
   const auto flag = [&](const char* key) {
     const Json* v = child(options, key);
     return v != nullptr && v->is_boolean() ? std::string(v->get<bool>() ? "on" : "off") : std::string(kNone);
   };
-  html += "<p class=\"meta\">Median wall time of one frame (Mesa llvmpipe, software rendering), mean over the views.</p>\n";
-  html += "<table>\n";
-  html += row("image size", count(numberAt(options, {"size"})) + " px, " + count(numberAt(options, {"views"})) + " views");
-  html += row("mip-mapping / filtering", flag("mipmapping") + " / " + flag("filtering"));
+  std::string rows =
+      row("image size", count(numberAt(options, {"size"})) + " px, " + count(numberAt(options, {"views"})) + " views");
+  rows += row("mip-mapping / filtering", flag("mipmapping") + " / " + flag("filtering"));
   // What the APO pass walked (docs/render.md): the APO texture, or the same
   // octree as GPU Gems 2's N^3-tree (--layout n3tree).
   const std::optional<std::string> layout = textAt(render, {"layout", "name"});
   if (layout && *layout == "n3tree")
-    html += row("octree drawn as", "GPU Gems 2's N^3-tree, N = " + count(numberAt(render, {"layout", "n"})) + " (scan.n3t)");
-  html += row("frame, reference", fixed(numberAt(cost, {"reference_frame_ms"}), 2) + " ms");
+    rows += row("octree drawn as", "GPU Gems 2's N^3-tree, N = " + count(numberAt(render, {"layout", "n"})) + " (scan.n3t)");
+  rows += row("frame, reference", fixed(numberAt(cost, {"reference_frame_ms"}), 2) + " ms");
   // M as points goes through the point LOD: what it sent and drew.
   const std::optional<double> sent = numberAt(cost, {"reference_primitives", "sent"});
   if (sent)
-    html += row("reference primitives, sent / drawn per view", count(sent) + " / " +
+    rows += row("reference primitives, sent / drawn per view", count(sent) + " / " +
                                                                  count(numberAt(cost, {"reference_primitives", "drawn"})));
-  html += row("frame, m alone", fixed(numberAt(cost, {"baseline_frame_ms"}), 2) + " ms");
-  html += row("frame, m with APO", fixed(numberAt(cost, {"apo_frame_ms"}), 2) + " ms");
-  html += row("texel reads per fragment, mean / max", fixed(numberAt(cost, {"apo_texel_fetches", "mean"}), 2) + " / " +
+  rows += row("frame, m alone", fixed(numberAt(cost, {"baseline_frame_ms"}), 2) + " ms");
+  rows += row("frame, m with APO", fixed(numberAt(cost, {"apo_frame_ms"}), 2) + " ms");
+  rows += row("texel reads per fragment, mean / max", fixed(numberAt(cost, {"apo_texel_fetches", "mean"}), 2) + " / " +
                                                           count(numberAt(cost, {"apo_texel_fetches", "max"})));
-  html += row("fragments counted", count(numberAt(cost, {"apo_texel_fetches", "fragments"})));
-  return html + "</table>\n</section>\n";
+  rows += row("fragments counted", count(numberAt(cost, {"apo_texel_fetches", "fragments"})));
+  return section("render-cost", "Render cost",
+                 "<p class=\"meta\">Median wall time of one frame (Mesa llvmpipe, software rendering), mean over the "
+                 "views.</p>\n" +
+                     rowsTable(rows));
 }
 
 std::string optionsSection(const Json& manifest) {
   const Json* options = child(&manifest, "options");
-  std::string html = "<section id=\"options\">\n<h2>Options</h2>\n";
   if (options == nullptr || !options->is_object() || options->empty())
-    return html + "<p class=\"notrun\">no options recorded</p>\n</section>\n";
-  html += "<details><summary>every option of every stage, as run</summary>\n<table>\n";
+    return section("options", "Options", notRunParagraph("no options recorded"));
+  const auto optionRow = [](const std::string& stage, const std::string& key, const Json& value) {
+    return "<tr><td>" + htmlEscape(stage) + "</td><td>" + htmlEscape(key) + "</td><td>" + htmlEscape(anyAsText(value)) +
+           "</td></tr>\n";
+  };
+  std::string rows;
   for (const auto& [stage, values] : options->items()) {
     if (values.is_object()) {
-      for (const auto& [key, value] : values.items())
-        html += "<tr><td>" + htmlEscape(stage) + "</td><td>" + htmlEscape(key) + "</td><td>" + htmlEscape(anyAsText(value)) +
-                "</td></tr>\n";
+      for (const auto& [key, value] : values.items()) rows += optionRow(stage, key, value);
     } else {
-      html += "<tr><td>" + htmlEscape(stage) + "</td><td></td><td>" + htmlEscape(anyAsText(values)) + "</td></tr>\n";
+      rows += optionRow(stage, "", values);
     }
   }
-  return html + "</table>\n</details>\n</section>\n";
+  return section("options", "Options", "<details><summary>every option of every stage, as run</summary>\n" + rowsTable(rows) +
+                                           "</details>\n");
 }
 
 std::string filesFooter(const Json& manifest) {
@@ -1061,61 +1121,59 @@ std::string indexStatus(const Json& manifest) {
   return "<span class=\"status-unknown\">" + (status.empty() ? std::string("unknown") : htmlEscape(status)) + "</span>";
 }
 
+// The thumbnail cell: the first view with the APO, opening the scan's
+// interactive view when the run made one; empty when nothing was rendered.
+std::string thumbnailCell(const Json& manifest, const std::string& dir, const std::string& base) {
+  const Json* views = child(results(manifest, "render"), "views");
+  if (stageStatus(manifest, "render") != "succeeded" || !isFilledArray(views)) return "<td class=\"thumb\"></td>";
+  const std::optional<std::string> viewer = textAt(&manifest, {"files", "viewer"});
+  const std::string image = "<img src=\"" + htmlEscape(urlPathEscape(base + rendersFolder(manifest) + "/view00_apo.png")) +
+                            "\" alt=\"" + htmlEscape(dir) + ", view 00 with APO\" width=\"96\" height=\"96\">";
+  return "<td class=\"thumb\">" +
+         (viewer ? "<a href=\"" + htmlEscape(urlPathEscape(base + *viewer)) + "\" title=\"interactive view\">" + image + "</a>"
+                 : image) +
+         "</td>";
+}
+
+// The scan's name, linking to its report, or to its manifest and log when it has none.
+std::string nameCell(const Json& manifest, const std::string& status, const std::string& dir, const std::string& base) {
+  const bool hasReport = textAt(&manifest, {"files", "report"}).has_value() || status == "succeeded";
+  const std::string name = htmlEscape(dir.empty() || dir == "." ? scanName(manifest) : dir);
+  if (status == "not_processed") return "<td>" + name + "</td>";  // nothing was written for it
+  if (hasReport) return "<td><a href=\"" + htmlEscape(urlPathEscape(base + "report.html")) + "\">" + name + "</a></td>";
+  return "<td>" + name + " <a class=\"meta\" href=\"" + htmlEscape(urlPathEscape(base + "manifest.json")) +
+         "\">manifest</a> <a class=\"meta\" href=\"" + htmlEscape(urlPathEscape(base + "run.log")) + "\">log</a></td>";
+}
+
+// "APO / m alone" mean angular errors, with m's over the APO's, or "m is M"
+// when nothing was simplified (m's own normals are then M's).
+std::string meanErrorsText(const Json& manifest) {
+  const Json* render = results(manifest, "render");
+  const std::optional<double> apoMean = numberAt(render, {"overall", "apo", "mean"});
+  const std::optional<double> baselineMean = numberAt(render, {"overall", "baseline", "mean"});
+  std::string text = degrees(apoMean) + " / " + degrees(baselineMean);
+  const Json* simplify = results(manifest, "simplify");
+  const std::optional<double> facesIn = numberAt(simplify, {"faces", "in"}), facesOut = numberAt(simplify, {"faces", "out"});
+  if (facesIn && facesOut && *facesIn == *facesOut) return text + " (m is M)";
+  if (apoMean && baselineMean && *apoMean > 0.0) return text + " (" + ratioText(*baselineMean / *apoMean) + "&times;)";
+  return text;
+}
+
 std::string indexRow(const BatchRow& scan) {
   const Json& manifest = scan.manifest;
   const std::string status = textAt(&manifest, {"status"}).value_or("");
   std::string dir = scan.relativeDir;
   while (!dir.empty() && dir.back() == '/') dir.pop_back();
   const std::string base = dir.empty() ? std::string() : dir + "/";
-  std::string html =
-      status == "failed" || status == "running" || status == "not_processed" || manifest.empty() ? "<tr class=\"failed\">"
-                                                                                                  : "<tr>";
-
-  // Thumbnail
-  const Json* render = results(manifest, "render");
-  const Json* views = child(render, "views");
-  const bool rendered = stageStatus(manifest, "render") == "succeeded" && views != nullptr && views->is_array() && !views->empty();
-  if (rendered)
-  {
-    // The thumbnail opens the scan's interactive view when the run made one.
-    const std::optional<std::string> viewer = textAt(&manifest, {"files", "viewer"});
-    const std::string image = "<img src=\"" + htmlEscape(urlPathEscape(base + rendersFolder(manifest) + "/view00_apo.png")) +
-                              "\" alt=\"" + htmlEscape(dir) + ", view 00 with APO\" width=\"96\" height=\"96\">";
-    html += "<td class=\"thumb\">" +
-            (viewer ? "<a href=\"" + htmlEscape(urlPathEscape(base + *viewer)) + "\" title=\"interactive view\">" + image + "</a>"
-                    : image) +
-            "</td>";
-  }
-  else
-    html += "<td class=\"thumb\"></td>";
-
-  // Name and link
-  const bool hasReport = textAt(&manifest, {"files", "report"}).has_value() || status == "succeeded";
-  const std::string name = dir.empty() || dir == "." ? scanName(manifest) : dir;
-  if (status == "not_processed")
-    html += "<td>" + htmlEscape(name) + "</td>";  // nothing was written for it
-  else if (hasReport)
-    html += "<td><a href=\"" + htmlEscape(urlPathEscape(base + "report.html")) + "\">" + htmlEscape(name) + "</a></td>";
-  else
-    html += "<td>" + htmlEscape(name) + " <a class=\"meta\" href=\"" + htmlEscape(urlPathEscape(base + "manifest.json")) +
-            "\">manifest</a> <a class=\"meta\" href=\"" + htmlEscape(urlPathEscape(base + "run.log")) + "\">log</a></td>";
-
+  const bool bad = status == "failed" || status == "running" || status == "not_processed" || manifest.empty();
+  std::string html = bad ? "<tr class=\"failed\">" : "<tr>";
+  html += thumbnailCell(manifest, dir, base) + nameCell(manifest, status, dir, base);
   html += "<td>" + indexStatus(manifest) + "</td>";
-  html += "<td class=\"n\">" + count(pointsIn(manifest)) + "</td>";
-  html += "<td class=\"n\">" + count(denseTriangles(manifest)) + "</td>";
-  html += "<td class=\"n\">" + count(coarseTriangles(manifest)) + "</td>";
-  html += "<td class=\"n\">" + bytesText(numberAt(results(manifest, "bake"), {"texture", "bytes"})) + "</td>";
-  const std::optional<double> apoMean = numberAt(render, {"overall", "apo", "mean"});
-  const std::optional<double> baselineMean = numberAt(render, {"overall", "baseline", "mean"});
-  html += "<td class=\"n\">" + degrees(apoMean) + " / " + degrees(baselineMean);
-  const Json* simplify = results(manifest, "simplify");
-  const std::optional<double> facesIn = numberAt(simplify, {"faces", "in"}), facesOut = numberAt(simplify, {"faces", "out"});
-  if (facesIn && facesOut && *facesIn == *facesOut)
-    html += " (m is M)";  // nothing was simplified: m's own normals are M's
-  else if (apoMean && baselineMean && *apoMean > 0.0)
-    html += " (" + ratioText(*baselineMean / *apoMean) + "&times;)";
-  html += "</td>";
-  html += "<td class=\"n\">" + seconds(totalSeconds(manifest)) + "</td>";
+  for (const std::string& figure :
+       {count(pointsIn(manifest)), count(denseTriangles(manifest)), count(coarseTriangles(manifest)),
+        bytesText(numberAt(results(manifest, "bake"), {"texture", "bytes"})), meanErrorsText(manifest),
+        seconds(totalSeconds(manifest))})
+    html += figureCell(figure);
   return html + "</tr>\n";
 }
 
@@ -1187,12 +1245,13 @@ std::string batchIndexHtml(const std::vector<BatchRow>& rows, const nlohmann::js
                         count(numberAt(&summary, {"skipped_up_to_date"})),
                         notProcessed && *notProcessed > 0.0 ? "; " + count(notProcessed) + " files not processed" : "",
                         seconds(numberAt(&summary, {"seconds"})));
-    html += "</header>\n<table class=\"index\">\n<thead><tr><th></th><th>scan</th><th>status</th><th class=\"n\">points</th>"
-            "<th class=\"n\">M triangles</th><th class=\"n\">m triangles</th><th class=\"n\">APO texture</th>"
-            "<th class=\"n\">mean angular error<br>APO / m alone</th><th class=\"n\">time</th></tr></thead>\n<tbody>\n";
+    html += "</header>\n" + tableStart("index", {"", "scan", "status"},
+                                        {"points", "M triangles", "m triangles", "APO texture",
+                                         "mean angular error<br>APO / m alone", "time"});
     for (const BatchRow& scan : rows) html += indexRow(scan);
     if (rows.empty()) html += "<tr><td colspan=\"9\" class=\"notrun\">no scans</td></tr>\n";
-    html += "</tbody>\n</table>\n<footer>Each scan's folder holds its report.html, manifest.json and run.log; "
+    html += kTableEnd;
+    html += "<footer>Each scan's folder holds its report.html, manifest.json and run.log; "
             "summary.json holds the counts above.</footer>\n";
     return html + kPageEnd;
   } catch (const std::exception& e) {

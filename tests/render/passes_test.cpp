@@ -11,6 +11,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <string>
 
 namespace apo {
@@ -161,8 +162,10 @@ TEST_F(BumpySphereRender, EachViewIsJudgedOnTheProbesItSees) {
       const Vec3f toEye = cameras[v].eye - probes->positions[q];
       facing += probes->coarseNormals[q].dot(toEye) > 0.0f && faceNormals[q].dot(toEye) > 0.0f ? 1 : 0;
     }
-    EXPECT_EQ(views[v].apo.pixels, facing) << "view " << v;
-    EXPECT_EQ(views[v].coarse.pixels, facing) << "view " << v;
+    // Up to one probe apart: one grazing the silhouette (its face a hair from
+    // edge-on) may go either way in float.
+    EXPECT_NEAR(static_cast<double>(views[v].apo.pixels), static_cast<double>(facing), 1.0) << "view " << v;
+    EXPECT_NEAR(static_cast<double>(views[v].coarse.pixels), static_cast<double>(facing), 1.0) << "view " << v;
     // A sphere seen from outside: a bit under half of the probes.
     EXPECT_GT(facing, probes->positions.size() / 3) << "view " << v;
     EXPECT_LT(views[v].apo.mean, 0.5 * views[v].coarse.mean) << "view " << v;
@@ -299,8 +302,9 @@ TEST_F(BumpySphereRender, TrilinearFilteringFollowsMsSmoothNormalsCloser) {
 TEST_F(BumpySphereRender, PointsAsSplatsShowTheSameSurfaceAsTheMesh) {
   // M as points: the vertices of a finer bumpy sphere with their analytic
   // normals, no triangles; drawn through the point LOD (default threshold:
-  // 0.85 degrees from the mesh here, with 54,565 of the 163,842 points
-  // drawn) and as every point's disc (0.49 degrees).
+  // about 100,000 of the 163,842 points drawn, the views framing the sphere's
+  // box: 54,565 when they framed its bounding sphere, 1.4 times farther) and
+  // as every point's disc.
   Scan points = test::BumpySphere().mesh(7);
   points.triangles.clear();
   RenderOptions options;
@@ -320,7 +324,7 @@ TEST_F(BumpySphereRender, PointsAsSplatsShowTheSameSurfaceAsTheMesh) {
       EXPECT_LT(angles.mean, pointLod ? 1.0 : 0.6) << "view " << v;
       EXPECT_LT(compareImages(splats.shaded, mesh.shaded, splats.normals, mesh.normals).silhouetteMismatch, 0.03) << "view " << v;
       if (pointLod) {
-        EXPECT_LT((*fromPoints)[v].cost.referenceDrawn, points.points.size() / 2);
+        EXPECT_LT((*fromPoints)[v].cost.referenceDrawn, 2 * points.points.size() / 3);
       }
     }
   }
@@ -465,6 +469,54 @@ TEST(StandardViews, AOneSidedScanIsSeenFromItsScannedSideFirst) {
   const std::vector<std::string> fixed = {"+x", "-x", "+y", "-y", "+z", "-z", "+x+y+z", "+x+y-z"};
   for (std::size_t i = 0; i < fixed.size(); ++i) EXPECT_EQ(round[i].label, fixed[i]);
   EXPECT_FALSE(round[0].seesScannedSide.has_value());
+}
+
+// A point in a camera's image, from -1 to 1 across (as its perspective
+// projection of a square image), and its depth along the view.
+struct ImagePoint {
+  float x, y, depth;
+};
+
+ImagePoint project(const Camera& c, const Vec3f& p) {
+  const Vec3f forward = (c.target - c.eye).normalized();
+  const Vec3f side = forward.cross(c.up).normalized();
+  const Vec3f up = side.cross(forward);
+  const Vec3f d = p - c.eye;
+  const float depth = d.dot(forward), slope = std::tan(0.5f * c.fovYDegrees * std::numbers::pi_v<float> / 180.0f);
+  return {d.dot(side) / (depth * slope), d.dot(up) / (depth * slope), depth};
+}
+
+// A flat box (a table top, 10 x 10 x 0.2) is framed on its own outline in
+// every view: no corner outside the image or the depth range, and the box
+// spans at least 80% of the image's width or height (a bounding sphere
+// would leave it 67% face-on, and a thin edge-on view far less).
+TEST(StandardViews, FrameTheBoxAsProjectedInEachView) {
+  Aabb box;
+  box.extend(Vec3f(-5.0f, -5.0f, -0.1f));
+  box.extend(Vec3f(5.0f, 5.0f, 0.1f));
+  const std::vector<Camera> cameras = standardViews(box, 14, Vec3f::UnitZ());
+  ASSERT_EQ(cameras.size(), 14u);
+  EXPECT_EQ(cameras[0].label, "+z");
+  for (const Camera& c : cameras) {
+    float left = 1.0f, right = -1.0f, bottom = 1.0f, top = -1.0f;
+    for (int corner = 0; corner < 8; ++corner) {
+      const Vec3f p((corner & 1) != 0 ? box.max.x() : box.min.x(), (corner & 2) != 0 ? box.max.y() : box.min.y(),
+                    (corner & 4) != 0 ? box.max.z() : box.min.z());
+      const ImagePoint q = project(c, p);
+      EXPECT_LE(std::abs(q.x), 1.0f) << c.label << " corner " << corner;
+      EXPECT_LE(std::abs(q.y), 1.0f) << c.label << " corner " << corner;
+      EXPECT_GT(q.depth, c.nearPlane) << c.label;
+      EXPECT_LT(q.depth, c.farPlane) << c.label;
+      left = std::min(left, q.x), right = std::max(right, q.x), bottom = std::min(bottom, q.y), top = std::max(top, q.y);
+    }
+    EXPECT_GE(std::max(right - left, top - bottom) / 2.0f, 0.8f) << c.label;
+  }
+  // Face-on from above, the square fills both ways.
+  const ImagePoint corner = project(cameras[0], box.max);
+  EXPECT_GE(std::min(std::abs(corner.x), std::abs(corner.y)), 0.9f);
+  // The same box gives the same views (deterministic).
+  const std::vector<Camera> again = standardViews(box, 14, Vec3f::UnitZ());
+  for (std::size_t i = 0; i < cameras.size(); ++i) EXPECT_EQ(again[i].eye, cameras[i].eye) << cameras[i].label;
 }
 
 // Seen from below, the square's back face is tinted, not black; from above
