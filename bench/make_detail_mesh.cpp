@@ -1,5 +1,5 @@
 // Reproducible inputs and a quality measure for the bake benchmark
-// (bench/bake_bench.sh, docs/benchmarks.md "Bake (issue 4)"):
+// (bench/bake_bench.sh, docs/benchmarks.md "The paper: Lacoste et al. 2007, Table 1"):
 //
 //   make_detail_mesh displace IN OUT.ply [--amplitude 0.001] [--period-edges 50]
 //       Moves every vertex of the mesh IN along its area-weighted normal by
