@@ -24,25 +24,46 @@
 # seconds (user + system) beside, and `uptime`'s load before and after, for
 # a machine shared with other work. About 1 min a round on two cores
 # (Blender ~40 s, half of it its Python PLY import).
+# --accuracy adds, after the timed rounds (whose figures it leaves as they
+# are), the accuracy of the three at these bytes: each runs once more,
+# untimed, into OUTDIR/accuracy (Blender also exporting m with that run's
+# UVs as OBJ, bench/peers_blender.py's fourth argument; MeshLab's
+# m_textured.ply turned into an OBJ with its per-wedge UVs by
+# bench/peers_obj.py), and the independent /work/shared/tools/normal_eval.py
+# (NORMAL_EVAL; run by /usr/bin/python3, with Debian's python3-open3d)
+# measures the angle to M's normal at 200,000 points on m (seed 1): m alone
+# (--baseline), apo's scan.apo through `apo lookup --coarse m.ply` with
+# --filter and without, and both maps as object-space (n = 2 rgb / 255 - 1
+# in m.ply's own axes; OBJ v = 0 at the image's bottom row). A second table
+# (mean / median / p95 degrees, bytes) goes into peers.md; the script stops
+# instead if m alone is not within 1-20 degrees, a field is not better than
+# m alone (a wrong convention, not a figure), or an OBJ's vertices are not
+# m.ply's. About 2 min more.
 # Usage (after the README's setup and build, plus
 # `cmake --build build -j2 --target open3d_baseline`):
-#   bash bench/peers.sh [--install] [OUTDIR]     (OUTDIR default: the repo's out/peers)
+#   bash bench/peers.sh [--install] [--accuracy] [OUTDIR]     (OUTDIR default: the repo's out/peers)
 # --install first runs apt-get update and install (Debian 12: blender 3.4.1, meshlab
 # 2020.09 with meshlabserver, xvfb, xauth, and python3-pil/numpy for the
 # check); otherwise nothing is installed and missing tools are named.
-# Environment: APO (default build/apo), OPEN3D (build/open3d_baseline), ROUNDS.
-# e.g. APO=/tmp/base/apo ROUNDS=5 bash bench/peers.sh --install out/peers
+# Environment: APO (default build/apo), OPEN3D (build/open3d_baseline), ROUNDS,
+# NORMAL_EVAL (default /work/shared/tools/normal_eval.py; --accuracy only).
+# e.g. APO=/tmp/base/apo ROUNDS=5 bash bench/peers.sh --install --accuracy out/peers
 set -euo pipefail
 packages=(blender meshlab xvfb xauth python3-pil python3-numpy)
 install=0
-if [ "${1:-}" = --install ]; then
-  install=1
+accuracy=0
+while [ "${1:-}" = --install ] || [ "${1:-}" = --accuracy ]; do
+  case $1 in
+    --install) install=1 ;;
+    --accuracy) accuracy=1 ;;
+  esac
   shift
-fi
+done
 # Paths given relative to the caller's directory stay so after the cd.
 out=${1:+$(realpath -m "$1")}
 apo=${APO:+$(realpath -m "$APO")}
 open3d=${OPEN3D:+$(realpath -m "$OPEN3D")}
+normal_eval=$(realpath -m "${NORMAL_EVAL:-/work/shared/tools/normal_eval.py}")
 cd "$(dirname "$0")/.."
 root=$PWD
 out=${out:-$root/out/peers}
@@ -52,6 +73,7 @@ rounds=${ROUNDS:-5}
 in=$out/inputs
 side=1024
 
+((accuracy)) && packages+=(python3-open3d)
 if ((install)); then
   apt-get update
   apt-get install -y --no-install-recommends "${packages[@]}"
@@ -62,6 +84,10 @@ for tool in blender meshlabserver xvfb-run xauth; do
 done
 [ -x /usr/bin/time ] || missing+=(/usr/bin/time)
 /usr/bin/python3 -c "import numpy, PIL" 2>/dev/null || missing+=("/usr/bin/python3's numpy and PIL")
+if ((accuracy)); then
+  /usr/bin/python3 -c "import open3d" 2>/dev/null || missing+=("/usr/bin/python3's open3d")
+  [ -f "$normal_eval" ] || missing+=("$normal_eval (NORMAL_EVAL=...)")
+fi
 if ((${#missing[@]})); then
   echo "peers.sh: missing ${missing[*]}: run bench/peers.sh --install, or" \
     "apt-get install -y --no-install-recommends ${packages[*]} (Debian 12; meshlab 2020.09 has meshlabserver," \
@@ -211,3 +237,119 @@ EOF
     "$(stat -c %s "$out/apo/scan.apo") bytes."
 } >"$out/peers.md"
 cat "$out/peers.md"
+
+((accuracy)) || exit 0
+
+# The accuracy pass: each contender once more, untimed, into $acc; then
+# normal_eval.py on each output (and on m alone).
+acc=$out/accuracy
+echo "peers.sh: accuracy pass (untimed) into $acc" >&2
+rm -rf "$acc"
+mkdir -p "$acc/blender" "$acc/meshlab"
+run() {
+  local log=$1
+  shift
+  "$@" >"$log" 2>&1 || { echo "peers.sh: failed (exit code $?): $*; see $log" >&2; tail -20 "$log" >&2; exit 1; }
+}
+run "$acc/apo.log" "$apo" bake --detail "$detail" --coarse "$coarse" -o "$acc/apo"
+[ "$(stat -c %s "$acc/apo/scan.apo" 2>/dev/null || echo 0)" -gt 100000 ] ||
+  { echo "peers.sh: apo bake wrote no scan.apo of over 100 kB in $acc/apo" >&2; exit 1; }
+run "$acc/blender.log" "${blender_cmd[@]:0:${#blender_cmd[@]}-1}" "$acc/blender/normals.png" "$acc/blender/m_uv.obj"
+check_png "$acc/blender/normals.png" Blender
+[ -s "$acc/blender/m_uv.obj" ] || { echo "peers.sh: Blender exported no $acc/blender/m_uv.obj" >&2; exit 1; }
+cp "$coarse" "$acc/meshlab/m.ply"
+cp "$out/meshlab/peers.mlx" "$acc/meshlab/peers.mlx"
+run "$acc/meshlab.log" xvfb-run -a meshlabserver -i "$detail" -i "$acc/meshlab/m.ply" -o "$acc/meshlab/m_textured.ply" \
+  -m wt -s "$acc/meshlab/peers.mlx"
+check_png "$acc/meshlab/peers_meshlab_normals.png" MeshLab
+run "$acc/meshlab_obj.log" /usr/bin/python3 bench/peers_obj.py "$acc/meshlab/m_textured.ply" "$acc/meshlab/m_uv.obj"
+
+# name, m as the field sees it, normal_eval.py's evaluator; one JSON each.
+evaluate() {
+  local name=$1 mesh=$2
+  shift 2
+  run "$acc/eval_$name.log" /usr/bin/python3 "$normal_eval" "$detail" "$mesh" "$@" --label "$name" \
+    --json "$acc/eval_$name.json"
+}
+evaluate m "$coarse" --baseline
+evaluate apo_filtered "$coarse" --apo "$acc/apo/scan.apo" \
+  --apo-lookup "$apo lookup --filter --coarse $coarse {apo} {points} -o {out}"
+evaluate apo_plain "$coarse" --apo "$acc/apo/scan.apo" --apo-lookup "$apo lookup --coarse $coarse {apo} {points} -o {out}"
+evaluate blender "$acc/blender/m_uv.obj" --map "$acc/blender/normals.png" --space object
+evaluate meshlab "$acc/meshlab/m_uv.obj" --map "$acc/meshlab/peers_meshlab_normals.png" --space object
+
+# m.ply against the OBJs the maps are read on: the same vertices (so the
+# maps' object space is m.ply's frame), or the figures are not comparable.
+if ! PYTHONPATH="$(dirname "$normal_eval")" /usr/bin/python3 - "$coarse" "$acc/blender/m_uv.obj" \
+  "$acc/meshlab/m_uv.obj" >"$acc/vertices.txt" 2>&1 <<'EOF'; then
+import sys
+import numpy as np
+import normal_eval
+m = normal_eval.read_mesh(sys.argv[1])
+bad = []
+for path in sys.argv[2:]:
+    obj = normal_eval.read_mesh(path)
+    if obj.V.shape != m.V.shape or obj.F.shape != m.F.shape:
+        bad.append(f"{path}: {len(obj.V)} vertices, {len(obj.F)} faces, m.ply {len(m.V)} and {len(m.F)}")
+        continue
+    # Vertex by vertex, else (if an exporter reordered them) as sorted coordinates.
+    dv = np.abs(obj.V - m.V).max()
+    if dv > 1e-5:
+        dv = np.abs(np.sort(obj.V, axis=0) - np.sort(m.V, axis=0)).max()
+    print(f"{path.split('/')[-2]}'s largest coordinate difference from m.ply {dv:.1g}")
+    if dv > 1e-5:
+        bad.append(f"{path}: coordinates differ from m.ply's by up to {dv:.3g} (axes converted?)")
+if bad:
+    sys.exit("; ".join(bad))
+EOF
+  echo "peers.sh: the maps' OBJs are not m.ply: $(cat "$acc/vertices.txt")" >&2
+  exit 1
+fi
+
+scan_bytes=$(stat -c %s "$acc/apo/scan.apo")
+/usr/bin/python3 - "$acc" "$scan_bytes" "$side" >"$acc/accuracy_table.md" <<'EOF' || exit 1
+import json, os, sys
+acc, scan_bytes, side = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
+png = {key: os.path.getsize(os.path.join(acc, path)) for key, path in
+       (("blender", "blender/normals.png"), ("meshlab", "meshlab/peers_meshlab_normals.png"))}
+rows = [("m alone (its vertex normals)", "m", "0 (m.ply's own normals)"),
+        ("apo, filtered (`lookup --filter`)", "apo_filtered", f"{scan_bytes:,} (scan.apo)"),
+        ("apo, plain (`lookup`)", "apo_plain", f"{scan_bytes:,} (scan.apo)"),
+        (f"Blender 3.4, Cycles object-space bake, {side}x{side}", "blender",
+         f"{side * side * 3:,} ({side}x{side}x3; PNG file {png['blender']:,})"),
+        (f"MeshLab 2020.09, per-triangle transfer, {side}x{side}", "meshlab",
+         f"{side * side * 3:,} ({side}x{side}x3; PNG file {png['meshlab']:,})")]
+results = {key: json.load(open(os.path.join(acc, f"eval_{key}.json"))) for _, key, _ in rows}
+problems = []
+base = results["m"]["stats"]["mean"]
+if not 1.0 <= base <= 20.0:
+    problems.append(f"m alone {base:.2f} degrees mean, not within 1-20")
+for _, key, _ in rows[1:]:
+    mean = results[key]["stats"]["mean"]
+    if not mean < base:
+        problems.append(f"{key} {mean:.2f} degrees mean, not below m alone's {base:.2f} (a wrong convention?)")
+    if results[key].get("invalid"):
+        problems.append(f"{key}: {results[key]['invalid']} points with no answer")
+if problems:
+    sys.exit("peers.sh: accuracy not reported: " + "; ".join(problems))
+print("| field | bytes | mean deg | median deg | p95 deg |")
+print("|---|---|---|---|---|")
+for name, key, size in rows:
+    s = results[key]["stats"]
+    print(f"| {name} | {size} | {s['mean']:.3f} | {s['median']:.3f} | {s['p95']:.3f} |")
+EOF
+{
+  echo
+  echo "Same-run accuracy at these bytes (bench/peers.sh --accuracy: each contender run once more, untimed, into" \
+    "accuracy/), by $(basename "$normal_eval") (independent of apo: 200,000 points on m by area, seed 1; the" \
+    "truth is M's area-weighted vertex normal interpolated at M's closest point; the angle in degrees to the" \
+    "stored normal). apo: \`apo lookup [--filter] --coarse m.ply scan.apo\` (filtered: trilinear, as the shader" \
+    "with filtering on). Maps: object space, n = normalize(2 rgb / 255 - 1) in m.ply's axes, bilinear at the" \
+    "point's UV (OBJ convention, v = 0 at the image's bottom row), on m exported with the bake's own UVs" \
+    "(Blender: its OBJ exporter, forward Y up Z, i.e. no axis change; MeshLab: m_textured.ply's per-wedge UVs," \
+    "bench/peers_obj.py); $(paste -sd ';' "$acc/vertices.txt" | sed 's/;/; /g')."
+  echo
+  cat "$acc/accuracy_table.md"
+} >"$acc/accuracy.md"
+cat "$acc/accuracy.md" >>"$out/peers.md"
+cat "$acc/accuracy.md"

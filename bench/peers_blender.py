@@ -14,10 +14,17 @@ route in Blender 3.4 (Debian 12).
     outward and a maximum ray distance of 2% (so the hits are sought within
     1% of m on either side, as apo bake's --max-distance 0.01 default),
     margin 16 px (the default);
-  - the image saved as PNG.
+  - the image saved as PNG;
+  - with a fourth argument (peers.sh --accuracy's untimed run only), m with
+    the UVs of this unwrap exported as that OBJ after all the above and
+    its prints (so the timed work is the same): Blender's legacy OBJ
+    exporter with forward Y and up Z, which keeps the PLY's coordinates
+    as they are (the PLY importer converts no axes either, and m's object
+    matrix is the identity), so that normal_eval.py --map reads the
+    PNG's object-space normals in m.ply's own frame.
 Prints "peers_blender: bake_seconds S" (the bake call's own time) and the
 import / unwrap seconds.
-Usage: blender -b --factory-startup --python bench/peers_blender.py -- HIGH.ply LOW.ply OUT.png
+Usage: blender -b --factory-startup --python bench/peers_blender.py -- HIGH.ply LOW.ply OUT.png [M_UV.obj]
 """
 import sys
 import time
@@ -31,7 +38,9 @@ CAGE_EXTRUSION = 0.01  # of m's bounding-box diagonal
 MAX_RAY_DISTANCE = 0.02  # idem
 MARGIN_PX = 16
 
-high_path, low_path, out_path = sys.argv[sys.argv.index("--") + 1:][:3]
+args = sys.argv[sys.argv.index("--") + 1:]
+high_path, low_path, out_path = args[:3]
+obj_path = args[3] if len(args) > 3 else None
 start = time.perf_counter()
 
 # The factory startup scene's cube, camera and light go.
@@ -108,3 +117,18 @@ print(f"peers_blender: high {len(high.data.polygons)} faces, low {len(low.data.p
 print(f"peers_blender: import_seconds {imported - start:.2f} unwrap_seconds {unwrapped - imported:.2f} "
       f"bake_seconds {baked - before:.2f} save_seconds {time.perf_counter() - baked:.2f}")
 sys.stdout.flush()
+
+if obj_path:
+    if low.matrix_world != low.matrix_world.Identity(4):
+        sys.exit(f"peers_blender: m's object matrix is not the identity: {low.matrix_world}")
+    bpy.ops.object.select_all(action="DESELECT")
+    low.select_set(True)
+    bpy.context.view_layer.objects.active = low
+    result = bpy.ops.export_scene.obj(filepath=obj_path, check_existing=False, use_selection=True, use_uvs=True,
+                                      use_normals=True, use_materials=False, use_mesh_modifiers=False,
+                                      use_triangles=False, axis_forward="Y", axis_up="Z", global_scale=1.0,
+                                      path_mode="AUTO")
+    if result != {"FINISHED"}:
+        sys.exit(f"peers_blender: the OBJ export returned {result}")
+    print(f"peers_blender: m with its UVs exported to {obj_path}")
+    sys.stdout.flush()
