@@ -29,7 +29,7 @@
 # untimed, into OUTDIR/accuracy (Blender also exporting m with that run's
 # UVs as OBJ, bench/peers_blender.py's fourth argument; MeshLab's
 # m_textured.ply turned into an OBJ with its per-wedge UVs by
-# bench/peers_obj.py), and the independent /work/shared/tools/normal_eval.py
+# bench/peers_obj.py), and the independent ../shared/tools/normal_eval.py
 # (NORMAL_EVAL; run by /usr/bin/python3, with Debian's python3-open3d)
 # measures the angle to M's normal at 200,000 points on m (seed 1): m alone
 # (--baseline), apo's scan.apo through `apo lookup --coarse m.ply` with
@@ -46,7 +46,7 @@
 # 2020.09 with meshlabserver, xvfb, xauth, and python3-pil/numpy for the
 # check); otherwise nothing is installed and missing tools are named.
 # Environment: APO (default build/apo), OPEN3D (build/open3d_baseline), ROUNDS,
-# NORMAL_EVAL (default /work/shared/tools/normal_eval.py; --accuracy only).
+# NORMAL_EVAL (default ../shared/tools/normal_eval.py beside the repository; --accuracy only).
 # e.g. APO=/tmp/base/apo ROUNDS=5 bash bench/peers.sh --install --accuracy out/peers
 set -euo pipefail
 packages=(blender meshlab xvfb xauth python3-pil python3-numpy)
@@ -63,10 +63,11 @@ done
 out=${1:+$(realpath -m "$1")}
 apo=${APO:+$(realpath -m "$APO")}
 open3d=${OPEN3D:+$(realpath -m "$OPEN3D")}
-normal_eval=$(realpath -m "${NORMAL_EVAL:-/work/shared/tools/normal_eval.py}")
+normal_eval=${NORMAL_EVAL:+$(realpath -m "$NORMAL_EVAL")}
 cd "$(dirname "$0")/.."
 root=$PWD
 out=${out:-$root/out/peers}
+normal_eval=${normal_eval:-$(realpath -m "$root/../shared/tools/normal_eval.py")}
 apo=${apo:-$root/build/apo}
 open3d=${open3d:-$root/build/open3d_baseline}
 rounds=${ROUNDS:-5}
