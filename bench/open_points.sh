@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Issue 43, part 4: the open points' figures in one go (docs/benchmarks.md,
-# "Open points of issue 43").
+# "Where the rendered error sits").
 # 1. kitten.xyz judged against the point LOD: the run's figures with
 #    --detail-source points and mesh; the LOD reference, the APO and m
 #    against M drawn from the same cameras (bench/open_points.py compare);

@@ -1,7 +1,7 @@
 """bench/peers.sh --accuracy's conversion of MeshLab's textured m (a binary
 PLY with per-wedge texture coordinates, "property list uchar float
 texcoord", as meshlabserver -m wt writes it) to a Wavefront OBJ with v, vt
-and f v/vt, as /work/shared/tools/normal_eval.py's --map reads it. Positions
+and f v/vt, as ../shared/tools/normal_eval.py's --map reads it. Positions
 and UVs are copied as they are (%.9g): VCG's texture coordinates, like OBJ's,
 have v = 0 at the bottom row of the image. Prints one line: vertices, faces,
 the UV range.
