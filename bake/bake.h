@@ -144,9 +144,10 @@ Result<Checked<BakeOptions>> check(const BakeOptions& options);
 // empty, lacks a normal per point (vertex) or has a non-finite one.
 Status validateBakeInputs(const Scan& detail, const Scan& coarse);
 
-// The bake against the given seams. Fails as validateBakeInputs does, and with an Internal error when a seam fails (the
-// closest-point search could not be made). Deterministic whatever the
-// thread count. `onProgress` hears the fraction done.
+// The bake against the given seams. Fails as validateBakeInputs does, and
+// with an Internal error when a seam fails (the closest-point search could
+// not be made). Deterministic whatever the thread count. `onProgress` hears
+// the fraction done.
 Result<Bake> bakeWith(const DetailSurface& detail, const CoarseSurface& coarse, const Checked<BakeOptions>& options,
                       const ProgressCallback& onProgress = {});
 
