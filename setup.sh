@@ -15,6 +15,8 @@ PACKAGES=(
   libosmesa6-dev
   # command line, formats, logging, hashing
   libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev libstb-dev libssl-dev libdeflate-dev liblzf-dev
+  # E57's XML section (ingest/e57_reader.cpp)
+  libpugixml-dev
   # tests and benchmarks; headless Chromium and its WebDriver for the QA
   # report's browser test (tests/report/browser_check.py); clang and its
   # runtime (libFuzzer, ASan, UBSan) for the fuzzers (fuzz/run.sh)

@@ -32,6 +32,11 @@ struct PointSet {
   // its pulse's returns (1-based) with that count.
   std::vector<std::uint8_t> classifications;
   std::vector<std::uint8_t> returnNumbers, returnCounts;
+  // Multi-scan files (E57): the index into Scan::stations of the scan each
+  // point came from, and, for structured scans, its row and column in that
+  // scan's grid.
+  std::vector<std::uint16_t> stations;
+  std::vector<std::uint32_t> rows, columns;
 
   std::size_t size() const { return positions.size(); }
   bool hasNormals() const { return !normals.empty(); }
@@ -39,6 +44,8 @@ struct PointSet {
   bool hasIntensities() const { return !intensities.empty(); }
   bool hasClassifications() const { return !classifications.empty(); }
   bool hasReturns() const { return !returnNumbers.empty(); }
+  bool hasStations() const { return !stations.empty(); }
+  bool hasGridIndices() const { return !rows.empty(); }
 };
 
 // Indices into PointSet::positions, counter-clockwise seen from outside.
@@ -49,6 +56,19 @@ using Triangle = std::array<std::uint32_t, 3>;
 struct Viewpoint {
   Vec3f origin = Vec3f::Zero();
   std::array<float, 4> orientationWxyz = {1, 0, 0, 0};
+};
+
+// One scan position of a multi-scan file (an E57 data3D): where the scanner
+// stood, in the scan's local frame (Scan::origin), and how it was turned.
+// Its points are already moved by this pose into the common frame.
+struct ScanStation {
+  std::string name;                           // the file's name or guid for it
+  Vec3f position = Vec3f::Zero();
+  std::array<double, 4> rotationWxyz = {1, 0, 0, 0};
+  bool hasPose = false;                       // false: the file gave none (identity)
+  // Structured scans: the size of the row/column grid (0 when unstructured).
+  std::uint32_t rowCount = 0, columnCount = 0;
+  std::uint64_t pointCount = 0;               // points read for it (valid ones)
 };
 
 // What ingest reads and every later stage starts from: a point cloud when
@@ -66,6 +86,9 @@ struct Scan {
   // this many, one per pixel, missing returns kept in place as NaN; 0 for
   // everything else. Ingest triangulates the grid (docs/ingest.md).
   std::uint32_t gridWidth = 0;
+  // Multi-scan files: each scan's position; points name theirs in
+  // PointSet::stations. Empty for everything else.
+  std::vector<ScanStation> stations;
   // What the reader skipped or turned into something else, in words
   // ("element 'edge' (120 items) skipped"), for ingest.json.
   std::vector<std::string> readNotes;

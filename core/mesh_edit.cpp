@@ -44,6 +44,9 @@ std::size_t keepPoints(Scan& scan, const std::vector<char>& keep) {
   compact(points.classifications, keep);
   compact(points.returnNumbers, keep);
   compact(points.returnCounts, keep);
+  compact(points.stations, keep);
+  compact(points.rows, keep);
+  compact(points.columns, keep);
   remapTriangles(scan.triangles, newIndex);
   scan.gridWidth = 0;  // rows with points taken out are no longer a grid
   return removed;
