@@ -56,6 +56,9 @@ using Triangle = std::array<std::uint32_t, 3>;
 struct Viewpoint {
   Vec3f origin = Vec3f::Zero();
   std::array<float, 4> orientationWxyz = {1, 0, 0, 0};
+  // The format's default (PCD's 0 0 0 1 0 0 0, which PCL writes whatever
+  // the sensor): no evidence of where the sensor stood.
+  bool isFormatDefault = false;
 };
 
 // One scan position of a multi-scan file (an E57 data3D): where the scanner

@@ -26,6 +26,15 @@ namespace {
 
 // Points needed to fit a plane with neighbours to spare.
 constexpr std::size_t kMinPointsForNormals = 4;
+// A position within this share of the origin's distance from the file's
+// zero is at that zero (float's precision in the local frame is far finer).
+constexpr double kSameAsZero = 1e-6;
+// A cloud whose height is under this share of its smaller horizontal side
+// is 2.5-D: an aerial tile.
+constexpr float kAerialHeightShare = 0.2f;
+// A structured scan's grid with more cells than this per point is mostly
+// empty: its row and column indices are not a range image's.
+constexpr std::uint64_t kMaxCellsPerPoint = 16;
 
 }  // namespace
 
@@ -114,8 +123,11 @@ void triangulateOrganizedGrid(Scan& scan, const IngestOptions& options, IngestRe
   IngestReport::GridMesh& grid = report.gridMesh;
   grid.width = scan.gridWidth;
   grid.height = scan.points.size() / scan.gridWidth;
-  grid.sensorSource = options.sensorPosition ? "--sensor" : scan.viewpoint ? "viewpoint" : "origin";
-  grid.sensor = options.sensorPosition ? *options.sensorPosition : scan.viewpoint ? scan.viewpoint->origin : Vec3f::Zero();
+  // A depth frame's points are in its camera's frame: without a viewpoint
+  // (or with PCD's default one) the camera is at the origin.
+  const bool viewpoint = scan.viewpoint && !scan.viewpoint->isFormatDefault;
+  grid.sensorSource = options.sensorPosition ? "--sensor" : viewpoint ? "viewpoint" : "origin";
+  grid.sensor = options.sensorPosition ? *options.sensorPosition : viewpoint ? scan.viewpoint->origin : Vec3f::Zero();
   std::vector<std::uint32_t> index(scan.points.size(), range_grid::kNoReturn);
   for (std::uint32_t i = 0; i < index.size(); ++i) {
     if (scan.points.positions[i].allFinite()) index[i] = i;
@@ -138,6 +150,170 @@ void triangulateOrganizedGrid(Scan& scan, const IngestOptions& options, IngestRe
                "at ({}, {}, {}): {} triangles, {} refused across depth jumps (edges over {:.1f} ray spacings) or grazing",
                grid.width, grid.height, grid.missing, grid.sensorSource, grid.sensor.x(), grid.sensor.y(),
                grid.sensor.z(), made.triangles, made.refused, grid.maxEdgeInSpacings);
+}
+
+// Where the points were seen from, when the file says so believably
+// (docs/ingest.md, "Sensor positions"): --sensor as given; a multi-scan
+// file's scan positions; a file's viewpoint unless it is at the zero of
+// georeferenced coordinates or lower than the top of an aerial tile. Each
+// is then checked against the points (normals::SensorAgreement). `refused` says why a declared position is not used.
+struct SensorChoice {
+  std::optional<Sensors> sensors;
+  std::string source;   // "--sensor", "scan_positions", "viewpoint", "pcd_default_viewpoint" or "" (none declared)
+  std::string refused;  // empty when used
+};
+
+// A file's coordinates' zero, for points far from it: a position written as
+// 0 0 0 because none was known.
+bool atGeoreferencedZero(const Vec3f& local, const std::array<double, 3>& origin) {
+  if (origin == std::array<double, 3>{0.0, 0.0, 0.0}) return false;
+  const Eigen::Vector3d world = local.cast<double>() + Eigen::Vector3d(origin[0], origin[1], origin[2]);
+  return world.norm() <= kSameAsZero * Eigen::Vector3d(origin[0], origin[1], origin[2]).norm();
+}
+
+// A 2.5-D cloud (an aerial tile: its height under a fifth of its smaller
+// horizontal side) is seen from above: a position lower than its top is not
+// an aircraft's (nor a tripod's beside it).
+bool belowAerialTile(const Vec3f& position, const Aabb& box) {
+  const Vec3f extent = box.extent();
+  return extent.z() < kAerialHeightShare * std::min(extent.x(), extent.y()) && position.z() < box.max.z();
+}
+
+std::string implausiblePosition(const Vec3f& position, const Scan& scan, const Aabb& box) {
+  if (!position.allFinite()) return "not a finite position";
+  if (atGeoreferencedZero(position, scan.origin)) return "the zero of the file's georeferenced coordinates";
+  if (belowAerialTile(position, box)) return "lower than the top of a 2.5-D (aerial) tile";
+  return {};
+}
+
+SensorChoice chooseSensors(const Scan& scan, const IngestOptions& options) {
+  SensorChoice choice;
+  if (options.sensorPosition) {
+    choice.source = "--sensor";
+    choice.sensors = Sensors::single(*options.sensorPosition);
+    return choice;
+  }
+  const Aabb box = boundingBox(scan.points.positions);
+  if (!scan.stations.empty() && scan.points.hasStations()) {
+    choice.source = "scan_positions";
+    Sensors sensors{{}, scan.points.stations};
+    for (const ScanStation& station : scan.stations) {
+      const std::string why = implausiblePosition(station.position, scan, box);
+      if (!why.empty()) {
+        choice.refused = fmt::format("scan '{}' at ({}, {}, {}): {}", station.name, station.position.x(),
+                                     station.position.y(), station.position.z(), why);
+        return choice;
+      }
+      sensors.positions.push_back(station.position);
+    }
+    choice.sensors = std::move(sensors);
+    return choice;
+  }
+  if (!scan.viewpoint) return choice;
+  // PCL writes its default whatever the sensor: no evidence on its own,
+  // used only where the points confirm it (rule 2).
+  choice.source = scan.viewpoint->isFormatDefault ? "pcd_default_viewpoint" : "viewpoint";
+  choice.refused = implausiblePosition(scan.viewpoint->origin, scan, box);
+  if (choice.refused.empty()) choice.sensors = Sensors::single(scan.viewpoint->origin);
+  return choice;
+}
+
+void recordAgreement(const normals::SensorAgreement& agreement, IngestReport::SensorDecision& decision) {
+  decision.checked = true;
+  decision.compared = agreement.compared;
+  decision.disagreeing = agreement.disagreeing;
+  decision.sampledForSight = agreement.sight.sampled;
+  decision.hidden = agreement.sight.hidden;
+  decision.kept = agreement.sensorsKept;
+  if (agreement.share() <= normals::kMaxSensorDisagreement) return;
+  if (agreement.sensorsKept)
+    spdlog::warn("ingest: normals turned towards the {} disagree with their propagation on {:.1f}% of the points, but "
+                 "{:.1f}% of them are hidden from it: the sensor's orientation is kept (the propagation errs)",
+                 decision.source, 100.0 * agreement.share(), 100.0 * agreement.sight.share());
+  else
+    spdlog::warn("ingest: normals turned towards the {} disagree with their propagation on {:.1f}% of the points and "
+                 "{:.1f}% of them are hidden from it: it is not where they were seen from; propagation kept",
+                 decision.source, 100.0 * agreement.share(), 100.0 * agreement.sight.share());
+}
+
+Sensors stationSensors(const Scan& scan) {
+  Sensors sensors{{}, scan.points.stations};
+  for (const ScanStation& station : scan.stations) sensors.positions.push_back(station.position);
+  return sensors;
+}
+
+// The points of each station, by index.
+std::vector<std::vector<std::uint32_t>> pointsByStation(const Scan& scan) {
+  std::vector<std::vector<std::uint32_t>> members(scan.stations.size());
+  for (std::uint32_t i = 0; i < scan.points.size(); ++i) members[scan.points.stations[i]].push_back(i);
+  return members;
+}
+
+// One structured scan's row/column grid triangulated from its position, as
+// an organised cloud's is; a cell given twice keeps its first point.
+IngestReport::StationGrid triangulateStationGrid(Scan& scan, std::size_t station,
+                                                 const std::vector<std::uint32_t>& members) {
+  const ScanStation& where = scan.stations[station];
+  IngestReport::StationGrid grid{where.name, where.rowCount, where.columnCount};
+  const std::size_t width = where.columnCount, height = where.rowCount;
+  std::vector<std::uint32_t> index(width * height, range_grid::kNoReturn);
+  std::vector<Vec3f> cells(width * height, Vec3f::Constant(std::numeric_limits<float>::quiet_NaN()));
+  for (std::uint32_t i : members) {
+    const std::size_t cell = std::size_t{scan.points.rows[i]} * width + scan.points.columns[i];
+    if (index[cell] != range_grid::kNoReturn) {
+      ++grid.repeatedCells;
+      continue;
+    }
+    index[cell] = i;
+    cells[cell] = scan.points.positions[i];
+  }
+  const range_grid::GridSpacing spacing = range_grid::measureSpacing(cells, width, where.position);
+  if (spacing.angularStep <= 0.0f) return grid;
+  const range_grid::GridTriangles made = range_grid::triangulate(index, width, height, where.position,
+                                                                 spacing.angularStep, spacing.maxEdgeInSpacings, scan);
+  grid.triangles = made.triangles;
+  grid.refused = made.refused;
+  return grid;
+}
+
+// Structured scans (a multi-scan file's row/column grids, every scan with
+// one) triangulated each from its own position, cut at depth jumps; their
+// normals then face their own scanner. Left as points when a scan has no
+// grid, a grid is far sparser than its points (over kMaxCellsPerPoint
+// cells each), or the positions are not believable.
+void triangulateStationGrids(Scan& scan, const IngestOptions& options, IngestReport& report) {
+  for (const ScanStation& station : scan.stations) {
+    const std::uint64_t cells = std::uint64_t{station.rowCount} * station.columnCount;
+    if (cells == 0 || cells > kMaxCellsPerPoint * std::max<std::uint64_t>(station.pointCount, 1)) {
+      spdlog::info("ingest: scan '{}' has no usable row/column grid ({} x {} for {} points): scans read as points",
+                   station.name, station.rowCount, station.columnCount, station.pointCount);
+      return;
+    }
+  }
+  const SensorChoice sensor = chooseSensors(scan, options);
+  if (!sensor.sensors || sensor.source != "scan_positions") {
+    spdlog::warn("ingest: structured scans read as points: {}", sensor.refused.empty() ? "--sensor given" : sensor.refused);
+    return;
+  }
+  const auto members = pointsByStation(scan);
+  for (std::size_t station = 0; station < scan.stations.size(); ++station)
+    report.stationGrids.push_back(triangulateStationGrid(scan, station, members[station]));
+  IngestReport::GridMesh& summary = report.gridMesh;
+  summary.made = scan.isMesh();
+  summary.sensorSource = "scan_positions";
+  for (const IngestReport::StationGrid& grid : report.stationGrids) {
+    summary.triangles += grid.triangles;
+    summary.refused += grid.refused;
+  }
+  spdlog::info("ingest: {} structured scans triangulated on their grids from their positions: {} triangles, {} refused "
+               "across depth jumps or grazing",
+               scan.stations.size(), summary.triangles, summary.refused);
+}
+
+IngestOptions scansUnlessSurface(const IngestOptions& options) {
+  IngestOptions scans = options;
+  if (scans.meshInput == MeshInput::Auto) scans.meshInput = MeshInput::Scans;
+  return scans;
 }
 
 // Scans of a sheet with no thickness, seen from both sides, made to face one
@@ -198,10 +374,11 @@ void meshNormals(Scan& scan, IngestReport& report) {
 // its vertex normals are fitted over neighbourhoods of k pixels instead (k
 // chosen as for point clouds), facing the sensor.
 Status gridMeshNormals(Scan& scan, const IngestOptions& options, IngestReport& report) {
-  Viewpoint sensor;
-  sensor.origin = report.gridMesh.sensor;
   Stopwatch watch;
-  auto fitted = normals::estimateOrientedNormals(scan.points.positions, sensor, options.normalNeighbours);
+  const Sensors sensors = report.stationGrids.empty()
+                                      ? Sensors::single(report.gridMesh.sensor)
+                                      : stationSensors(scan);
+  auto fitted = normals::estimateOrientedNormals(scan.points.positions, sensors, options.normalNeighbours);
   if (!fitted) return fitted.error();
   scan.points.normals = std::move(fitted->normals);
   // A vertex whose neighbourhood fits no plane keeps its faces' normal.
@@ -213,8 +390,10 @@ Status gridMeshNormals(Scan& scan, const IngestOptions& options, IngestReport& r
   }
   report.normalSeconds = watch.seconds();
   report.normalsSource = "estimated";
-  report.normalOrientation = "viewpoint";
+  report.normalOrientation = fitted->orientation;
   report.normalNeighbours = fitted->neighbours;
+  report.sensor.source = report.gridMesh.sensorSource;
+  if (fitted->agreement) recordAgreement(*fitted->agreement, report.sensor);
   return okStatus();
 }
 
@@ -259,15 +438,22 @@ Status pointCloudNormals(Scan& scan, const IngestOptions& options, IngestReport&
     scan.viewpoint = Viewpoint{};
     scan.viewpoint->origin = *options.sensorPosition;
   }
+  const SensorChoice sensor = chooseSensors(scan, options);
+  report.sensor.source = sensor.source;
+  report.sensor.refused = sensor.refused;
+  if (!sensor.refused.empty())
+    spdlog::warn("ingest: {}: not used as the sensor position ({}): normals are oriented by {}", sensor.source,
+                 sensor.refused, orientationMethodName(options.orientation));
   Stopwatch watch;
-  auto oriented = normals::estimateOrientedNormals(scan.points.positions, scan.viewpoint, options.normalNeighbours,
+  auto oriented = normals::estimateOrientedNormals(scan.points.positions, sensor.sensors, options.normalNeighbours,
                                                    options.orientation);
   if (!oriented) return oriented.error();
   normals::OrientedNormals& estimated = *oriented;
   scan.points.normals = std::move(estimated.normals);
   report.normalSeconds = watch.seconds();
   report.normalsSource = "estimated";
-  report.normalOrientation = estimated.orientation;
+  report.normalOrientation =
+      estimated.orientation == "viewpoint" && sensor.source == "scan_positions" ? "scan_positions" : estimated.orientation;
   report.normalNeighbours = estimated.neighbours;
   spdlog::info("ingest: normals estimated with k = {}, oriented by {} in {:.2f} s", estimated.neighbours,
                estimated.orientation, report.normalSeconds);
@@ -278,6 +464,7 @@ Status pointCloudNormals(Scan& scan, const IngestOptions& options, IngestReport&
                  estimated.unoriented);
   report.orientationIslands = estimated.islands;
   report.orientationLeftovers = estimated.unoriented;
+  if (estimated.agreement) recordAgreement(*estimated.agreement, report.sensor);
 
   runStep(report, "drop_points_without_normal", [&] {
     std::vector<char> keep(scan.points.size());
@@ -288,6 +475,40 @@ Status pointCloudNormals(Scan& scan, const IngestOptions& options, IngestReport&
 }
 
 nlohmann::ordered_json vectorJson(const Vec3f& v) { return {v.x(), v.y(), v.z()}; }
+
+// How the sensor's normals compared with propagation's, and its sight.
+nlohmann::ordered_json agreementJson(const IngestReport::SensorDecision& sensor) {
+  return {{"compared", sensor.compared},
+          {"disagreeing", sensor.disagreeing},
+          {"max_disagreeing_share", normals::kMaxSensorDisagreement},
+          {"sight_sampled", sensor.sampledForSight},
+          {"sight_hidden", sensor.hidden},
+          {"max_hidden_share", normals::kMaxHiddenFromSensor},
+          {"sensor_kept", sensor.kept}};
+}
+
+// Each scan position of a multi-scan file, with its grid when triangulated.
+nlohmann::ordered_json stationsJson(const IngestReport& report) {
+  auto stations = nlohmann::ordered_json::array();
+  for (std::size_t s = 0; s < report.stations.size(); ++s) {
+    const ScanStation& station = report.stations[s];
+    const auto& q = station.rotationWxyz;
+    nlohmann::ordered_json entry{{"name", station.name},
+                                 {"position", vectorJson(station.position)},
+                                 {"rotation_wxyz", {q[0], q[1], q[2], q[3]}},
+                                 {"pose_given", station.hasPose},
+                                 {"points", station.pointCount},
+                                 {"rows", station.rowCount},
+                                 {"columns", station.columnCount},
+                                 {"grid", nullptr}};
+    if (s < report.stationGrids.size()) {
+      const IngestReport::StationGrid& grid = report.stationGrids[s];
+      entry["grid"] = {{"triangles", grid.triangles}, {"refused_triangles", grid.refused}, {"repeated_cells", grid.repeatedCells}};
+    }
+    stations.push_back(std::move(entry));
+  }
+  return stations;
+}
 
 // "drop_points_without_normal removed the last 8": which step emptied the scan.
 std::string lastRemoval(const IngestReport& report) {
@@ -333,6 +554,9 @@ Result<IngestResult> ingestScan(const fs::path& path, const Checked<IngestOption
   if (!scan.isMesh() && scan.gridWidth > 0 && options.triangulateGrid) {
     triangulateOrganizedGrid(scan, options, report);
     report.isMesh = scan.isMesh();
+  } else if (!scan.isMesh() && scan.points.hasGridIndices() && options.triangulateGrid) {
+    triangulateStationGrids(scan, options, report);
+    report.isMesh = scan.isMesh();
   }
   runStep(report, "drop_non_finite", [&] { return cleaning::dropNonFinitePoints(scan); });
   if (scan.points.size() == 0)
@@ -346,7 +570,9 @@ Result<IngestResult> ingestScan(const fs::path& path, const Checked<IngestOption
     if (options.orientFaces && !report.gridMesh.made) APO_RETURN_IF_ERROR(orientMeshFaces(scan, report));
     if (report.gridMesh.made) APO_RETURN_IF_ERROR(gridMeshNormals(scan, options, report));
     else meshNormals(scan, report);
+    // Several scans' grids overlap: their points are reconstructed into M.
     if (!report.gridMesh.made) APO_RETURN_IF_ERROR(decideMeshInput(scan, options, report));
+    else if (scan.stations.size() > 1) APO_RETURN_IF_ERROR(decideMeshInput(scan, scansUnlessSurface(options), report));
   } else {
     APO_RETURN_IF_ERROR(cleanPointCloud(scan, options, report, path));
     APO_RETURN_IF_ERROR(pointCloudNormals(scan, options, report, path));
@@ -358,6 +584,7 @@ Result<IngestResult> ingestScan(const fs::path& path, const Checked<IngestOption
   report.boundingBox = boundingBox(scan.points.positions);
   report.hasViewpoint = scan.viewpoint.has_value();
   if (scan.viewpoint) report.viewpoint = *scan.viewpoint;
+  report.stations = scan.stations;
   report.totalSeconds = total.seconds();
   return result;
 }
@@ -383,6 +610,14 @@ std::string ingestReportJson(const IngestReport& report) {
                      {"neighbours", report.normalNeighbours},
                      {"mst_islands", report.orientationIslands},
                      {"oriented_by_nearest", report.orientationLeftovers}};
+  const auto& sensor = report.sensor;
+  json["sensor"] = sensor.source.empty()
+                       ? nlohmann::ordered_json(nullptr)
+                       : nlohmann::ordered_json{
+                             {"source", sensor.source},
+                             {"refused", sensor.refused.empty() ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(sensor.refused)},
+                             {"agreement", !sensor.checked ? nlohmann::ordered_json(nullptr) : agreementJson(sensor)}};
+  json["scan_positions"] = stationsJson(report);
   if (report.hasViewpoint) {
     const auto& q = report.viewpoint.orientationWxyz;
     json["viewpoint"] = {{"origin", vectorJson(report.viewpoint.origin)}, {"orientation_wxyz", {q[0], q[1], q[2], q[3]}}};

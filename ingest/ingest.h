@@ -106,6 +106,17 @@ struct IngestReport {
   std::uint64_t orientationLeftovers = 0;  // points oriented by their nearest neighbour
   bool hasViewpoint = false;
   Viewpoint viewpoint;
+  // Whose position oriented the normals, or why a declared one was not
+  // used, and how it agreed with propagation (docs/ingest.md, "Sensor positions").
+  struct SensorDecision {
+    std::string source;   // "--sensor", "scan_positions", "viewpoint", "pcd_default_viewpoint",
+                          // "origin" (depth frames); "" none declared
+    std::string refused;  // why a declared position was not used; empty when it was
+    bool checked = false;  // its normals compared with propagation's
+    std::uint64_t compared = 0, disagreeing = 0;
+    std::uint64_t sampledForSight = 0, hidden = 0;  // points tested for a clear line to the sensor, hidden ones
+    bool kept = false;     // the sensor's orientation kept
+  } sensor;
   // Meshes: pieces found wound inward and flipped (docs/ingest.md).
   struct FaceOrientation {
     bool checked = false;
@@ -132,6 +143,15 @@ struct IngestReport {
     Vec3f sensor = Vec3f::Zero();
     std::string sensorSource;                   // "--sensor", "viewpoint" (the file's) or "origin"
   } gridMesh;
+  // Structured multi-scan files: each scan's grid (docs/ingest.md).
+  struct StationGrid {
+    std::string name;
+    std::uint64_t rows = 0, columns = 0;
+    std::uint64_t triangles = 0, refused = 0;
+    std::uint64_t repeatedCells = 0;  // points on a cell already taken (left out of the grid)
+  };
+  std::vector<StationGrid> stationGrids;
+  std::vector<ScanStation> stations;  // multi-scan files' scan positions, as read
   std::array<double, 3> origin = {0.0, 0.0, 0.0};  // Scan::origin: the local frame
   std::vector<std::string> readNotes;               // what the reader skipped or converted
   double readSeconds = 0.0;

@@ -22,6 +22,11 @@ namespace apo::normals {
 namespace {
 
 constexpr std::size_t kSubsampleSize = 2000;
+// Points whose line to their sensor is tested (line_of_sight::measure).
+constexpr std::size_t kSightSamples = 4000;
+// A normal facing its sensor at this cosine or more is seen squarely
+// (orientFromSquarelySeen).
+constexpr float kSquarelySeen = 0.3f;
 // Neighbours of each point in the orientation graph. CGAL's MST takes
 // max(k, 12) (k of the normals); the propagation takes 12 whatever k is:
 // on a 1M-point scan with k = 48 it oriented every normal the same way with
@@ -92,9 +97,13 @@ Status turnLikeNearest(const std::vector<Vec3f>& points, std::vector<Vec3f>& nor
   return okStatus();
 }
 
+constexpr std::uint32_t kNoIsland = ~0u;
+
 struct IslandOrientation {
   std::size_t islands = 0;     // k-NN graph components oriented by their own MST
   std::size_t leftovers = 0;   // points oriented by their nearest neighbour alone
+  // The propagation's: each point's island (kNoIsland for leftovers).
+  std::vector<std::uint32_t> islandOf;
 };
 
 // Connected components of the symmetric k-nearest-neighbour graph, largest
@@ -252,13 +261,8 @@ class BucketQueue {
 // before): an edge to it no lighter can never be the one it is reached
 // through (the lighter one, or the earlier of equal ones, is popped first),
 // so it is not queued; the tree is the same, with far fewer pushes.
-void propagateFromHighest(const Adjacency& graph, const std::vector<Vec3f>& points, std::vector<Vec3f>& normals,
-                          const std::vector<std::uint32_t>& component, std::vector<char>& visited,
-                          std::vector<std::uint16_t>& lightest) {
-  const std::uint32_t seed = *std::max_element(component.begin(), component.end(), [&](std::uint32_t a, std::uint32_t b) {
-    return std::tie(points[a].z(), b) < std::tie(points[b].z(), a);
-  });
-  if (normals[seed].z() < 0.0f) normals[seed] = -normals[seed];
+void propagateFromSeeds(const Adjacency& graph, std::vector<Vec3f>& normals, const std::vector<std::uint32_t>& seeds,
+                        std::vector<char>& visited, std::vector<std::uint16_t>& lightest) {
   BucketQueue frontier;
   auto pushEdgesOf = [&](std::uint32_t from) {
     visited[from] = 1;
@@ -271,13 +275,47 @@ void propagateFromHighest(const Adjacency& graph, const std::vector<Vec3f>& poin
       frontier.push(bucket, {to, from});
     }
   };
-  pushEdgesOf(seed);
+  for (std::uint32_t seed : seeds) visited[seed] = 1;
+  for (std::uint32_t seed : seeds) pushEdgesOf(seed);
   while (!frontier.empty()) {
     const auto [to, from] = frontier.pop();
     if (visited[to]) continue;
     if (normals[from].dot(normals[to]) < 0.0f) normals[to] = -normals[to];
     pushEdgesOf(to);
   }
+}
+
+void propagateFromHighest(const Adjacency& graph, const std::vector<Vec3f>& points, std::vector<Vec3f>& normals,
+                          const std::vector<std::uint32_t>& component, std::vector<char>& visited,
+                          std::vector<std::uint16_t>& lightest) {
+  const std::uint32_t seed = *std::max_element(component.begin(), component.end(), [&](std::uint32_t a, std::uint32_t b) {
+    return std::tie(points[a].z(), b) < std::tie(points[b].z(), a);
+  });
+  if (normals[seed].z() < 0.0f) normals[seed] = -normals[seed];
+  propagateFromSeeds(graph, normals, {seed}, visited, lightest);
+}
+
+// Normals facing their sensors where they face it squarely (cosine at least
+// kSquarelySeen), the rest by propagation from those: a plane fitted at a
+// grazing angle, tilted by noise or by a thin part's other face, can face
+// the sensor the wrong way, its neighbours seen squarely cannot. Points in
+// pieces with no squarely seen point keep facing their sensor.
+void orientFromSquarelySeen(const std::vector<Vec3f>& points, std::vector<Vec3f>& facing, const Sensors& sensors,
+                            const flann_adapter::NeighbourGraph& nearest) {
+  const Adjacency graph = symmetricGraph(nearest, kPropagationNeighbours, points.size());
+  std::vector<std::uint32_t> squarely;
+  for (std::uint32_t i = 0; i < points.size(); ++i) {
+    const Vec3f toSensor = sensors.of(i) - points[i];
+    if (facing[i].allFinite() && facing[i].dot(toSensor) >= kSquarelySeen * toSensor.norm()) squarely.push_back(i);
+  }
+  std::vector<Vec3f> defined = facing;
+  for (Vec3f& n : defined)
+    if (!n.allFinite()) n = Vec3f::UnitZ();
+  std::vector<char> visited(points.size(), 0);
+  std::vector<std::uint16_t> lightest(points.size(), BucketQueue::kBuckets);
+  propagateFromSeeds(graph, defined, squarely, visited, lightest);
+  for (std::size_t i = 0; i < points.size(); ++i)
+    if (facing[i].allFinite()) facing[i] = defined[i];
 }
 
 // Orientation by propagation over the graph's first `columns` neighbours,
@@ -291,6 +329,7 @@ Result<IslandOrientation> orientByPropagation(const std::vector<Vec3f>& points, 
   std::vector<char> visited(points.size(), 0);
   std::vector<std::uint16_t> lightest(points.size(), BucketQueue::kBuckets);
   std::vector<std::uint32_t> oriented, leftovers;
+  result.islandOf.assign(points.size(), kNoIsland);
   for (const auto& component : graphComponents(graph, points.size())) {
     if (component.size() <= columns) {
       leftovers.insert(leftovers.end(), component.begin(), component.end());
@@ -298,6 +337,7 @@ Result<IslandOrientation> orientByPropagation(const std::vector<Vec3f>& points, 
     }
     propagateFromHighest(graph, points, normals, component, visited, lightest);
     oriented.insert(oriented.end(), component.begin(), component.end());
+    for (std::uint32_t i : component) result.islandOf[i] = static_cast<std::uint32_t>(result.islands);
     ++result.islands;
   }
   std::sort(leftovers.begin(), leftovers.end());
@@ -338,18 +378,68 @@ Vec3f planeNormal(const std::vector<Vec3f>& points, const flann_adapter::Neighbo
   return normal;
 }
 
-// PCA normals from each point and its first k - 1 graph neighbours, on every
-// core (each normal written by one task: the result does not depend on their
-// number).
+// PCA normals from each point and its first k - 1 graph neighbours, each
+// turned towards its sensor, on every core (each normal written by one
+// task: the result does not depend on their number).
 std::vector<Vec3f> pcaNormals(const std::vector<Vec3f>& points, const flann_adapter::NeighbourGraph& graph, int k,
-                              const Vec3f& towards) {
+                              const Sensors& sensors) {
   const std::size_t others = std::min(graph.k, static_cast<std::size_t>(std::max(k - 1, 0)));
   std::vector<Vec3f> normals(points.size());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 4096), [&](const auto& range) {
     for (std::size_t i = range.begin(); i < range.end(); ++i)
-      normals[i] = planeNormal(points, graph, i, others, towards);
+      normals[i] = planeNormal(points, graph, i, others, sensors.of(i));
   });
   return normals;
+}
+
+// Each propagated island turned, if need be, so that most of its points
+// face their sensors: how the two would agree if the sensors were right.
+void signIslandsBySensors(const std::vector<Vec3f>& facing, std::vector<Vec3f>& propagated,
+                          const IslandOrientation& islands) {
+  std::vector<std::int64_t> vote(islands.islands, 0);
+  for (std::size_t i = 0; i < propagated.size(); ++i)
+    if (islands.islandOf[i] != kNoIsland && facing[i].allFinite())
+      vote[islands.islandOf[i]] += propagated[i].dot(facing[i]) >= 0.0f ? 1 : -1;
+  for (std::size_t i = 0; i < propagated.size(); ++i)
+    if (islands.islandOf[i] != kNoIsland && vote[islands.islandOf[i]] < 0) propagated[i] = -propagated[i];
+}
+
+// The line-of-sight test's cell: twice the median distance to the sixth
+// nearest neighbour, so that a surface's cells leave no gap for a line to
+// slip through.
+float sightCell(const std::vector<Vec3f>& points, const flann_adapter::NeighbourGraph& graph) {
+  if (graph.k == 0) return 0.0f;
+  const std::size_t column = std::min<std::size_t>(5, graph.k - 1);
+  std::vector<double> distances;
+  for (std::uint32_t i : evenSubsample(points.size(), kSubsampleSize))
+    distances.push_back((points[graph.neighbours[i * graph.k + column]] - points[i]).norm());
+  return static_cast<float>(2.0 * median(distances));
+}
+
+SensorAgreement measureAgreement(const std::vector<Vec3f>& points, const std::vector<Vec3f>& facing,
+                                 const std::vector<Vec3f>& propagated, const Sensors& sensors, float cell) {
+  SensorAgreement agreement;
+  for (std::size_t i = 0; i < facing.size(); ++i) {
+    if (!facing[i].allFinite()) continue;
+    ++agreement.compared;
+    if (facing[i].dot(propagated[i]) < 0.0f) ++agreement.disagreeing;
+  }
+  agreement.sight = line_of_sight::measure(points, facing, sensors, cell, kSightSamples);
+  agreement.sensorsKept =
+      agreement.share() <= kMaxSensorDisagreement || agreement.sight.share() <= kMaxHiddenFromSensor;
+  return agreement;
+}
+
+// Every normal defined (orienting needs them all; undefined ones are
+// dropped by the caller), oriented by `orientation`.
+Result<IslandOrientation> orientAll(const std::vector<Vec3f>& points, std::vector<Vec3f>& normals,
+                                    const flann_adapter::NeighbourGraph& graph, int neighbours,
+                                    OrientationMethod orientation) {
+  for (Vec3f& n : normals)
+    if (!n.allFinite()) n = Vec3f::UnitZ();
+  return orientation == OrientationMethod::CgalMst
+             ? orientByIslands(points, normals, std::max(neighbours, kMinMstNeighbours))
+             : orientByPropagation(points, normals, graph, kPropagationNeighbours);
 }
 
 }  // namespace
@@ -390,7 +480,7 @@ Result<int> chooseNeighbourCount(const std::vector<Vec3f>& points) {
 }
 
 Result<OrientedNormals> estimateOrientedNormals(const std::vector<Vec3f>& points,
-                                                const std::optional<Viewpoint>& viewpoint, int k,
+                                                const std::optional<Sensors>& sensors, int k,
                                                 OrientationMethod orientation) {
   OrientedNormals result;
   Stopwatch phase;
@@ -410,28 +500,31 @@ Result<OrientedNormals> estimateOrientedNormals(const std::vector<Vec3f>& points
   if (!graph) return graph.error();
   spdlog::info("ingest: {} nearest neighbours of {} points in {:.2f} s", graph->k, points.size(), phase.seconds());
   phase = Stopwatch();
-  // Without a viewpoint the propagation decides; the origin only makes the
+  // Without sensors the propagation decides; the origin only makes the
   // starting signs reproducible.
-  result.normals = pcaNormals(points, *graph, result.neighbours, viewpoint ? viewpoint->origin : Vec3f::Zero());
+  result.normals = pcaNormals(points, *graph, result.neighbours, sensors ? *sensors : Sensors::single(Vec3f::Zero()));
   spdlog::info("ingest: PCA normals of {} points in {:.2f} s", points.size(), phase.seconds());
   phase = Stopwatch();
-  if (viewpoint) {
-    result.orientation = "viewpoint";
-    return result;
-  }
-  result.orientation = orientationMethodName(orientation);
-  // Orienting needs every normal defined; undefined ones are dropped by the caller.
-  std::vector<Vec3f> defined = result.normals;
-  for (Vec3f& n : defined)
-    if (!n.allFinite()) n = Vec3f::UnitZ();
-  const Result<IslandOrientation> islands =
-      orientation == OrientationMethod::CgalMst
-          ? orientByIslands(points, defined, std::max(result.neighbours, kMinMstNeighbours))
-          : orientByPropagation(points, defined, *graph, kPropagationNeighbours);
+  // With sensors, the propagation is the check (SensorAgreement), whatever
+  // `orientation` would have been.
+  const OrientationMethod method = sensors ? OrientationMethod::Propagation : orientation;
+  std::vector<Vec3f> oriented = result.normals;
+  const Result<IslandOrientation> islands = orientAll(points, oriented, *graph, result.neighbours, method);
   if (!islands) return islands.error();
-  spdlog::info("ingest: normals oriented by {} in {:.2f} s", result.orientation, phase.seconds());
+  spdlog::info("ingest: normals oriented by {} in {:.2f} s", orientationMethodName(method), phase.seconds());
+  if (sensors) {
+    std::vector<Vec3f> signedBySensors = oriented;
+    signIslandsBySensors(result.normals, signedBySensors, *islands);
+    result.agreement = measureAgreement(points, result.normals, signedBySensors, *sensors, sightCell(points, *graph));
+    if (result.agreement->sensorsKept) {
+      orientFromSquarelySeen(points, result.normals, *sensors, *graph);
+      result.orientation = "viewpoint";
+      return result;
+    }
+  }
+  result.orientation = orientationMethodName(method);
   for (std::size_t i = 0; i < points.size(); ++i)
-    if (result.normals[i].allFinite()) result.normals[i] = defined[i];
+    if (result.normals[i].allFinite()) result.normals[i] = oriented[i];
   result.islands = islands->islands;
   result.unoriented = islands->leftovers;
   return result;

@@ -4,6 +4,7 @@
 #include "core/error.h"
 #include "core/geometry.h"
 #include "ingest/ingest.h"
+#include "ingest/sensors.h"
 
 #include <optional>
 #include <string>
@@ -23,20 +24,40 @@ inline constexpr int kCandidateNeighbourCounts[] = {8, 12, 16, 24, 32, 48};
 // Internal error when PCL fails.
 Result<int> chooseNeighbourCount(const std::vector<Vec3f>& points);
 
+// Normals turned towards their sensors against normals oriented by
+// propagation over the same points, each propagated island then signed by
+// the majority of its points facing their sensors, and how many points are
+// out of their sensor's sight (docs/ingest.md, "Sensor positions").
+struct SensorAgreement {
+  std::uint64_t compared = 0;     // points with a normal
+  std::uint64_t disagreeing = 0;  // of those, turned opposite ways by the two
+  line_of_sight::Sight sight;     // sampled points hidden from their sensor
+  bool sensorsKept = true;        // false: the propagation kept
+  double share() const { return compared == 0 ? 0.0 : static_cast<double>(disagreeing) / static_cast<double>(compared); }
+};
+// Over this share of disagreeing points, the sensors are kept only when at
+// most this share of the points are hidden from them: a true position sees
+// every point it measured (open scenes, where the propagation errs); a
+// wrong one (a position beside the data, below it, inside it) does not.
+inline constexpr double kMaxSensorDisagreement = 0.10;
+inline constexpr double kMaxHiddenFromSensor = 0.10;
+
 struct OrientedNormals {
   std::vector<Vec3f> normals;   // unit, or NaN where no plane could be fitted
   int neighbours = 0;           // k used
   std::string orientation;      // "viewpoint", "propagation" or "mst"
   std::size_t islands = 0;      // separate pieces, each oriented by its own MST
   std::size_t unoriented = 0;   // points no MST pass reached (oriented by their nearest neighbour)
+  std::optional<SensorAgreement> agreement;  // when sensors were given
 };
 
 // Estimates normals (a plane fitted to each point and its k - 1 nearest
-// neighbours; k = 0 chooses it) and orients them towards `viewpoint` when
-// given, else by `orientation`, island by island for scans in separate
-// pieces (docs/ingest.md). Internal error when a library fails.
+// neighbours; k = 0 chooses it) and orients them towards `sensors` when
+// given and they agree with the propagation (SensorAgreement), else by
+// `orientation`, island by island for scans in separate pieces
+// (docs/ingest.md). Internal error when a library fails.
 Result<OrientedNormals> estimateOrientedNormals(const std::vector<Vec3f>& points,
-                                                const std::optional<Viewpoint>& viewpoint, int k,
+                                                const std::optional<Sensors>& sensors, int k,
                                                 OrientationMethod orientation = OrientationMethod::Propagation);
 
 }  // namespace apo::normals

@@ -5,6 +5,7 @@
 // allocated.
 #include "adapters/pcl/pcl_points.h"
 #include "ingest/parse_util.h"
+#include "ingest/positions.h"
 #include "ingest/readers.h"
 
 #include <algorithm>
@@ -53,6 +54,13 @@ struct Columns {
   std::optional<std::size_t> intensity;
 };
 
+// VIEWPOINT as written: its position in the file's coordinates, in double
+// until the points' local frame is known.
+struct FileViewpoint {
+  std::array<double, 3> origin{};
+  std::array<float, 4> orientationWxyz{};
+};
+
 struct Header {
   std::vector<Field> fields;
   Columns columns;
@@ -61,7 +69,7 @@ struct Header {
   std::uint64_t recordSize = 0;      // binary: sum of SIZE * COUNT
   std::uint64_t packedRecordSize = 0;  // binary_compressed: the same without padding
   Encoding encoding = Encoding::Ascii;
-  std::optional<Viewpoint> viewpoint;
+  std::optional<FileViewpoint> viewpoint;
   std::uint64_t width = 0, height = 1;  // the grid; HEIGHT > 1: an organised cloud
 };
 
@@ -240,9 +248,10 @@ class HeaderReader {
 
   void readViewpoint(Tokens values) {
     expectValueCount(values, 7, "VIEWPOINT", "tx ty tz qw qx qy qz");
-    std::array<float, 7> v{};
-    for (std::size_t i = 0; i < v.size(); ++i) v[i] = static_cast<float>(cursor_.number(values[i], "VIEWPOINT"));
-    viewpoint_ = Viewpoint{Vec3f(v[0], v[1], v[2]), {v[3], v[4], v[5], v[6]}};
+    std::array<double, 7> v{};
+    for (std::size_t i = 0; i < v.size(); ++i) v[i] = cursor_.number(values[i], "VIEWPOINT");
+    viewpoint_ = FileViewpoint{{v[0], v[1], v[2]}, {static_cast<float>(v[3]), static_cast<float>(v[4]),
+                                                    static_cast<float>(v[5]), static_cast<float>(v[6])}};
   }
 
   void readData(Tokens values) {
@@ -371,7 +380,7 @@ class HeaderReader {
   Listed<std::uint64_t> counts_;
   std::optional<std::uint64_t> width_, height_, points_;
   std::size_t widthLine_ = 0, pointsLine_ = 0;
-  std::optional<Viewpoint> viewpoint_;
+  std::optional<FileViewpoint> viewpoint_;
   std::optional<Encoding> encoding_;
 };
 
@@ -380,25 +389,33 @@ Rgb8 unpackRgb(std::uint32_t packed) {
           static_cast<std::uint8_t>(packed & 0xff)};
 }
 
-void reservePoints(PointSet& out, const Columns& columns, std::size_t count) {
+// What a body decodes into: positions in double until the local frame is
+// chosen (positions.h), the other attributes as they are.
+struct Body {
+  PositionCollector positions;
+  PointSet& points;
+};
+
+void reservePoints(Body& out, const Columns& columns, std::size_t count) {
   out.positions.reserve(count);
-  if (columns.normal) out.normals.reserve(count);
-  if (columns.color) out.colors.reserve(count);
-  if (columns.intensity) out.intensities.reserve(count);
+  if (columns.normal) out.points.normals.reserve(count);
+  if (columns.color) out.points.colors.reserve(count);
+  if (columns.intensity) out.points.intensities.reserve(count);
 }
 
 // Appends one point; `point` gives a field's first element as a number
 // (number(f)) and a packed color's raw 32 bits (colorBits(f)).
 template <class Point>
-void appendPoint(const Columns& columns, const Point& point, PointSet& out) {
-  auto vec = [&](const std::array<std::size_t, 3>& f) {
-    return Vec3f(static_cast<float>(point.number(f[0])), static_cast<float>(point.number(f[1])),
-                 static_cast<float>(point.number(f[2])));
-  };
-  out.positions.push_back(vec(columns.position));
-  if (columns.normal) out.normals.push_back(vec(*columns.normal));
-  if (columns.color) out.colors.push_back(unpackRgb(point.colorBits(*columns.color)));
-  if (columns.intensity) out.intensities.push_back(static_cast<float>(point.number(*columns.intensity)));
+void appendPoint(const Columns& columns, const Point& point, Body& out) {
+  const auto& xyz = columns.position;
+  out.positions.push(point.number(xyz[0]), point.number(xyz[1]), point.number(xyz[2]));
+  if (columns.normal) {
+    const auto& f = *columns.normal;
+    out.points.normals.push_back(Vec3f(static_cast<float>(point.number(f[0])), static_cast<float>(point.number(f[1])),
+                                       static_cast<float>(point.number(f[2]))));
+  }
+  if (columns.color) out.points.colors.push_back(unpackRgb(point.colorBits(*columns.color)));
+  if (columns.intensity) out.points.intensities.push_back(static_cast<float>(point.number(*columns.intensity)));
 }
 
 // ---- DATA ascii ----
@@ -474,7 +491,7 @@ void rejectDataAfterLastPoint(parse::TextCursor& cursor, std::vector<std::string
   }
 }
 
-void readAsciiBody(parse::TextCursor& cursor, std::size_t bodyBytes, const Header& header, PointSet& out) {
+void readAsciiBody(parse::TextCursor& cursor, std::size_t bodyBytes, const Header& header, Body& out) {
   // Each point takes at least one character and one separator per token, so
   // a lying POINTS cannot make this reserve more than the file could hold.
   reservePoints(out, header.columns, std::min<std::uint64_t>(header.points, bodyBytes / header.tokensPerPoint / 2 + 1));
@@ -541,13 +558,13 @@ class BinaryPoint {
   std::size_t index_;
 };
 
-void decodeRecords(const std::vector<FieldView>& views, const Header& header, PointSet& out) {
+void decodeRecords(const std::vector<FieldView>& views, const Header& header, Body& out) {
   reservePoints(out, header.columns, header.points);
   for (std::size_t i = 0; i < header.points; ++i) appendPoint(header.columns, BinaryPoint(views, i), out);
 }
 
 // Point-major: each point's fields side by side, padding included.
-void readBinaryBody(std::string_view bytes, std::size_t offset, const Header& header, PointSet& out) {
+void readBinaryBody(std::string_view bytes, std::size_t offset, const Header& header, Body& out) {
   parse::checkCountFits(header.points, header.recordSize, bytes.size() - offset, "points", offset);
   std::vector<FieldView> views;
   std::size_t fieldOffset = 0;
@@ -584,7 +601,7 @@ std::vector<char> decompressLzf(std::string_view compressed, std::size_t uncompr
 
 // Sizes then LZF data; decompressed it is field-major (all x, then all y,
 // ...), and padding fields are left out.
-void readCompressedBody(std::string_view bytes, std::size_t offset, const Header& header, PointSet& out) {
+void readCompressedBody(std::string_view bytes, std::size_t offset, const Header& header, Body& out) {
   parse::BinaryCursor in(bytes, offset);
   const auto compressedSize = in.read<std::uint32_t>(false, "compressed size");
   const auto uncompressedSize = in.read<std::uint32_t>(false, "uncompressed size");
@@ -605,21 +622,37 @@ void readCompressedBody(std::string_view bytes, std::size_t offset, const Header
   decodeRecords(views, header, out);
 }
 
+// PCL writes VIEWPOINT 0 0 0 1 0 0 0 whether or not a sensor stood there.
+bool isPclDefault(const FileViewpoint& viewpoint) {
+  return viewpoint.origin == std::array<double, 3>{0.0, 0.0, 0.0} &&
+         viewpoint.orientationWxyz == std::array<float, 4>{1.0f, 0.0f, 0.0f, 0.0f};
+}
+
+Viewpoint inLocalFrame(const FileViewpoint& viewpoint, const std::array<double, 3>& origin) {
+  Viewpoint local;
+  for (int axis = 0; axis < 3; ++axis) local.origin[axis] = static_cast<float>(viewpoint.origin[axis] - origin[axis]);
+  local.orientationWxyz = viewpoint.orientationWxyz;
+  local.isFormatDefault = isPclDefault(viewpoint);
+  return local;
+}
+
 }  // namespace
 
 Scan readPcd(std::string_view bytes) {
   parse::TextCursor cursor(bytes);
   const Header header = HeaderReader(cursor).read();
   Scan scan;
-  scan.viewpoint = header.viewpoint;
   // pointCount() checked WIDTH x HEIGHT = POINTS.
   if (header.height > 1 && header.width <= std::numeric_limits<std::uint32_t>::max())
     scan.gridWidth = static_cast<std::uint32_t>(header.width);
+  Body body{{}, scan.points};
   switch (header.encoding) {
-    case Encoding::Ascii: readAsciiBody(cursor, bytes.size() - cursor.offset(), header, scan.points); break;
-    case Encoding::Binary: readBinaryBody(bytes, cursor.offset(), header, scan.points); break;
-    case Encoding::BinaryCompressed: readCompressedBody(bytes, cursor.offset(), header, scan.points); break;
+    case Encoding::Ascii: readAsciiBody(cursor, bytes.size() - cursor.offset(), header, body); break;
+    case Encoding::Binary: readBinaryBody(bytes, cursor.offset(), header, body); break;
+    case Encoding::BinaryCompressed: readCompressedBody(bytes, cursor.offset(), header, body); break;
   }
+  body.positions.finishInto(scan);
+  if (header.viewpoint) scan.viewpoint = inLocalFrame(*header.viewpoint, scan.origin);
   return scan;
 }
 

@@ -7,27 +7,56 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <string>
 
 namespace apo {
 namespace {
 
-// A square grid of rays from `origin` towards `target`, wide enough to see a
-// sphere of `radius` around the target.
-std::vector<Ray> viewRays(const Vec3f& origin, const Vec3f& target, float radius, int raysPerSide) {
-  const Vec3f forward = (target - origin).normalized();
-  const Vec3f helper = std::abs(forward.z()) < 0.9f ? Vec3f::UnitZ() : Vec3f::UnitX();
-  const Vec3f right = forward.cross(helper).normalized();
-  const Vec3f up = right.cross(forward);
-  const float halfWidth = radius / std::sqrt(std::max(1e-12f, (target - origin).squaredNorm() - radius * radius));
+// A scanner at `origin` looking at `target`, its field wide enough to see a
+// sphere of `radius` around the target: its axes and half-width (the
+// tangent of half its field).
+struct ViewFrame {
+  Vec3f origin, forward, right, up;
+  float halfWidth = 0.0f;
+};
+
+ViewFrame frameOf(const Vec3f& origin, const Vec3f& target, float radius) {
+  ViewFrame frame;
+  frame.origin = origin;
+  frame.forward = (target - origin).normalized();
+  const Vec3f helper = std::abs(frame.forward.z()) < 0.9f ? Vec3f::UnitZ() : Vec3f::UnitX();
+  frame.right = frame.forward.cross(helper).normalized();
+  frame.up = frame.right.cross(frame.forward);
+  frame.halfWidth = radius / std::sqrt(std::max(1e-12f, (target - origin).squaredNorm() - radius * radius));
+  return frame;
+}
+
+// A square grid of rays, row by row.
+std::vector<Ray> viewRays(const ViewFrame& frame, int raysPerSide) {
   std::vector<Ray> rays;
   rays.reserve(static_cast<std::size_t>(raysPerSide) * raysPerSide);
   for (int row = 0; row < raysPerSide; ++row)
     for (int column = 0; column < raysPerSide; ++column) {
-      const float sx = (2.0f * (column + 0.5f) / raysPerSide - 1.0f) * halfWidth;
-      const float sy = (2.0f * (row + 0.5f) / raysPerSide - 1.0f) * halfWidth;
-      rays.push_back({origin, (forward + sx * right + sy * up).normalized()});
+      const float sx = (2.0f * (column + 0.5f) / raysPerSide - 1.0f) * frame.halfWidth;
+      const float sy = (2.0f * (row + 0.5f) / raysPerSide - 1.0f) * frame.halfWidth;
+      rays.push_back({frame.origin, (frame.forward + sx * frame.right + sy * frame.up).normalized()});
     }
   return rays;
+}
+
+// The scanner's pose after the view's misregistration: its position, and
+// its axes (right, up, backward: a right-handed camera frame) as a rotation.
+ScanStation stationOf(const ViewFrame& frame, const Eigen::Affine3f& motion, std::size_t view, int raysPerSide) {
+  Eigen::Matrix3f axes;
+  axes << frame.right, frame.up, -frame.forward;
+  const Eigen::Quaterniond rotation(Eigen::Matrix3f(motion.linear() * axes).cast<double>());
+  ScanStation station;
+  station.name = "view " + std::to_string(view);
+  station.position = motion * frame.origin;
+  station.rotationWxyz = {rotation.w(), rotation.x(), rotation.y(), rotation.z()};
+  station.hasPose = true;
+  station.rowCount = station.columnCount = static_cast<std::uint32_t>(raysPerSide);
+  return station;
 }
 
 // A small rigid motion about `centre`: rotation of `angle` radians about a
@@ -73,34 +102,39 @@ Result<SimulatedScan> simulateScan(const Scan& mesh, const RayCaster& caster,
   SimulatedScan result;
   std::vector<RayHit> hits;
   for (const Vec3f& direction : fibonacciDirections(options.views)) {
-    const Vec3f origin = centre + 2.0f * radius * direction;
-    const auto rays = viewRays(origin, centre, radius, options.raysPerSide);
+    const ViewFrame frame = frameOf(centre + 2.0f * radius * direction, centre, radius);
+    const auto rays = viewRays(frame, options.raysPerSide);
     caster.intersect(rays, hits);
     const Eigen::Affine3f motion =
         misregistration(random, centre, misregistrationSize, misregistrationSize * box.diagonal());
-    std::uint32_t kept = 0;
+    const auto view = static_cast<std::uint16_t>(result.scan.stations.size());
+    ScanStation station = stationOf(frame, motion, view, options.raysPerSide);
+    PointSet& points = result.scan.points;
     std::vector<std::uint32_t> gridIndex(rays.size(), range_grid::kNoReturn);
     for (std::size_t i = 0; i < rays.size(); ++i) {
       if (!hits[i].hit()) continue;
-      gridIndex[i] = static_cast<std::uint32_t>(result.scan.points.positions.size());
+      gridIndex[i] = static_cast<std::uint32_t>(points.positions.size());
       const float range = hits[i].t + noiseSigma * gaussian(random);
-      result.scan.points.positions.push_back(motion * Vec3f(rays[i].origin + range * rays[i].direction));
+      points.positions.push_back(motion * Vec3f(rays[i].origin + range * rays[i].direction));
+      points.stations.push_back(view);
+      points.rows.push_back(static_cast<std::uint32_t>(i / options.raysPerSide));
+      points.columns.push_back(static_cast<std::uint32_t>(i % options.raysPerSide));
       if (options.withNormals) {
         Vec3f normal = hits[i].geometricNormal.normalized();
         if (normal.dot(rays[i].direction) > 0) normal = -normal;  // the side the scanner saw
-        result.scan.points.normals.push_back(motion.linear() * normal);
+        points.normals.push_back(motion.linear() * normal);
       }
-      ++kept;
+      ++station.pointCount;
     }
     if (options.asMesh) {
-      const float angularStep = 2.0f * radius / std::sqrt(std::max(1e-12f, (centre - origin).squaredNorm() - radius * radius)) /
-                                static_cast<float>(options.raysPerSide);
+      const float angularStep = 2.0f * frame.halfWidth / static_cast<float>(options.raysPerSide);
       range_grid::triangulate(gridIndex, static_cast<std::size_t>(options.raysPerSide),
-                              static_cast<std::size_t>(options.raysPerSide), motion * origin, angularStep,
+                              static_cast<std::size_t>(options.raysPerSide), station.position, angularStep,
                               range_grid::kMaxEdgeInSpacings, result.scan);
     }
-    result.viewOrigins.push_back(origin);
-    result.pointsPerView.push_back(kept);
+    result.viewOrigins.push_back(frame.origin);
+    result.pointsPerView.push_back(static_cast<std::uint32_t>(station.pointCount));
+    result.scan.stations.push_back(std::move(station));
   }
   return result;
 }

@@ -880,6 +880,37 @@ std::string stagesSection(const Json& manifest) {
   return section("stages", "Stages: time and memory", html + kTableEnd);
 }
 
+// The scan positions a multi-scan file gave, and whether the declared
+// sensor position oriented the normals, or why not (docs/ingest.md).
+std::string sensorRows(const Json* ingest) {
+  std::string html;
+  if (const Json* stations = at(ingest, {"scan_positions"}); stations != nullptr && stations->is_array() && !stations->empty()) {
+    std::uint64_t points = 0;
+    for (const Json& station : *stations) points += static_cast<std::uint64_t>(numberAt(&station, {"points"}).value_or(0));
+    html += row("scans in the file", count(static_cast<double>(stations->size())) + " scan positions, " +
+                                        count(static_cast<double>(points)) + " points in all");
+  }
+  const Json* sensor = at(ingest, {"sensor"});
+  if (sensor == nullptr || !sensor->is_object()) return html;
+  const std::string source = escaped(textAt(sensor, {"source"}));
+  if (const Json* refused = at(sensor, {"refused"}); refused != nullptr && refused->is_string())
+    return html + row("sensor position not used", source + ": " + escaped(text(refused)));
+  if (const Json* agreement = at(sensor, {"agreement"}); agreement != nullptr && agreement->is_object()) {
+    const double compared = numberAt(agreement, {"compared"}).value_or(0);
+    const double disagreeing = numberAt(agreement, {"disagreeing"}).value_or(0);
+    const std::string share = compared > 0 ? fmt::format("{:.1f}%", 100.0 * disagreeing / compared) : kNone;
+    const bool kept = at(agreement, {"sensor_kept"}) != nullptr && at(agreement, {"sensor_kept"})->is_boolean() &&
+                      at(agreement, {"sensor_kept"})->get<bool>();
+    const double sampled = numberAt(agreement, {"sight_sampled"}).value_or(0);
+    const std::string hidden =
+        sampled > 0 ? fmt::format("{:.1f}%", 100.0 * numberAt(agreement, {"sight_hidden"}).value_or(0) / sampled) : kNone;
+    html += row(kept ? "normals face the sensor position" : "sensor position not where the points were seen from, not used",
+                source + ": " + share + " of the points oriented the other way by propagation, " + hidden +
+                    " hidden from it");
+  }
+  return html;
+}
+
 // What ingest decided on its own about a mesh (surface or scans, windings
 // flipped) and about far coordinates, in words; empty when nothing to say.
 std::string ingestDecisionRows(const Json* ingest) {
@@ -896,7 +927,12 @@ std::string ingestDecisionRows(const Json* ingest) {
     html += row("scans of a sheet seen from both sides, turned to face one way",
                 count(numberAt(sheets, {"turned_points"})) + " points in " + count(numberAt(sheets, {"turned_pieces"})) +
                     " pieces");
-  if (const Json* grid = at(ingest, {"grid_mesh"}); grid != nullptr && grid->is_object())
+  if (const Json* grid = at(ingest, {"grid_mesh"});
+      grid != nullptr && grid->is_object() && textAt(grid, {"sensor_from"}) == "scan_positions")
+    html += row("structured scans triangulated on their grids",
+                count(numberAt(grid, {"triangles"})) + " triangles facing their scan positions, " +
+                    count(numberAt(grid, {"refused_triangles"})) + " refused across depth jumps or grazing");
+  else if (grid != nullptr && grid->is_object())
     html += row("organised cloud triangulated on its grid",
                 count(numberAt(grid, {"width"})) + " x " + count(numberAt(grid, {"height"})) + " pixels, " +
                     count(numberAt(grid, {"pixels_without_return"})) + " without a return; " +
@@ -904,6 +940,7 @@ std::string ingestDecisionRows(const Json* ingest) {
                     escaped(textAt(grid, {"sensor_from"})) + "), " + count(numberAt(grid, {"refused_triangles"})) +
                     " refused across depth jumps (edges over " + fixed(numberAt(grid, {"max_edge_in_spacings"}), 1) +
                     " ray spacings) or grazing");
+  html += sensorRows(ingest);
   if (const Json* faces = at(ingest, {"face_orientation"}); faces != nullptr && faces->is_object() &&
                                                              numberAt(faces, {"flipped_triangles"}).value_or(0) > 0)
     html += row("faces wound inward, flipped", count(numberAt(faces, {"flipped_triangles"})) + " triangles in " +

@@ -84,7 +84,7 @@ TEST(EstimateOrientedNormals, ViewpointInsideTheSphereTurnsNormalsInwards) {
   const auto points = noisySphere(5000, 0.0f, centre);
   Viewpoint sensor;
   sensor.origin = centre;
-  const OrientedNormals result = estimateOrientedNormals(points, sensor, 12).value();
+  const OrientedNormals result = estimateOrientedNormals(points, Sensors::single(sensor.origin), 12).value();
   EXPECT_EQ(result.orientation, "viewpoint");
   EXPECT_EQ(result.neighbours, 12);
   for (std::size_t i = 0; i < points.size(); ++i) EXPECT_LT(angleDegrees(result.normals[i], centre - points[i]), 10.0f) << i;
@@ -102,9 +102,66 @@ TEST(EstimateOrientedNormals, PlaneNormalsAreExactAndFaceTheViewpoint) {
   for (float side : {1.0f, -1.0f}) {
     Viewpoint sensor;
     sensor.origin = corner + side * 5.0f * truth;
-    const OrientedNormals result = estimateOrientedNormals(plane, sensor, 10).value();
+    const OrientedNormals result = estimateOrientedNormals(plane, Sensors::single(sensor.origin), 10).value();
     for (const Vec3f& n : result.normals) EXPECT_LT(angleDegrees(n, side * truth), 0.1f);  // float positions near 5000
   }
+}
+
+// A declared position beside a closed object sees a third of it: turned
+// towards it, the far side's normals point in, the propagation (each island
+// signed by the position) disagrees on that third, and the far side is
+// hidden behind the near one: the position is refused and the
+// propagation's outward normals kept.
+TEST(EstimateOrientedNormals, APositionTheNormalsDisagreeWithIsRefused) {
+  const Vec3f centre(1, -1, 3);
+  const auto points = noisySphere(8000, 0.0f, centre);
+  const OrientedNormals result = estimateOrientedNormals(points, Sensors::single(centre + Vec3f(6, 0, 0)), 12).value();
+  ASSERT_TRUE(result.agreement.has_value());
+  EXPECT_FALSE(result.agreement->sensorsKept);
+  EXPECT_NEAR(result.agreement->share(), 1.0 / 3.0, 0.03);  // the cap seen from 3 radii: (1 - 1/3) / 2 of the sphere
+  EXPECT_GT(result.agreement->sight.share(), 0.5);
+  EXPECT_EQ(result.orientation, "propagation");
+  for (std::size_t i = 0; i < points.size(); ++i) ASSERT_LT(angleDegrees(result.normals[i], points[i] - centre), 10.0f) << i;
+}
+
+// Where the points were seen from, per point: a thin ellipsoid (a plate
+// 20 times wider than thick) scanned from 8 positions around it. Turned
+// towards their own scan's position (grazing ones by propagation from
+// squarely seen ones), the normals face out but for a few at the rim; the
+// propagation alone crosses the rim and turns half the plate inside out.
+TEST(EstimateOrientedNormals, ScanPositionsOrientEveryPointTowardsItsOwnScanner) {
+  Scan plate = test::makeIcosphere(4);
+  for (Vec3f& p : plate.points.positions) p.z() *= 0.05f;
+  SimulateScanOptions options;
+  options.views = 8;
+  options.raysPerSide = 70;
+  options.rangeNoise = 0.0;
+  options.misregistration = 0.0;
+  options.withNormals = true;
+  const test::BruteForceCaster caster(plate);
+  const SimulatedScan simulated = simulateScan(plate, caster, test::checked(options)).value();
+  const PointSet& points = simulated.scan.points;
+  ASSERT_EQ(points.stations.size(), points.size());
+  Sensors sensors{{}, points.stations};
+  for (const ScanStation& station : simulated.scan.stations) sensors.positions.push_back(station.position);
+  // Orientation errors only: normals opposite to the truth where the fitted
+  // plane is within 60 degrees of the true one either way (at the rim,
+  // neighbourhoods spanning both faces fit planes that no sign makes right).
+  const auto flipped = [&](const std::vector<Vec3f>& normals) {
+    std::size_t count = 0;
+    for (std::size_t i = 0; i < points.size(); ++i)
+      count += normals[i].allFinite() && normals[i].dot(points.normals[i]) < -0.5f;
+    return count;
+  };
+  const OrientedNormals bySensors = estimateOrientedNormals(points.positions, sensors, 12).value();
+  const OrientedNormals byPropagation = estimateOrientedNormals(points.positions, std::nullopt, 12).value();
+  EXPECT_EQ(bySensors.orientation, "viewpoint");
+  const std::size_t bySensorsFlipped = flipped(bySensors.normals), byPropagationFlipped = flipped(byPropagation.normals);
+  EXPECT_LT(bySensorsFlipped, points.size() / 200);       // 46 of 14,463
+  EXPECT_GT(byPropagationFlipped, points.size() / 4);     // 7,131
+  RecordProperty("flipped_by_positions", static_cast<int>(bySensorsFlipped));
+  RecordProperty("flipped_by_propagation", static_cast<int>(byPropagationFlipped));
+  RecordProperty("points", static_cast<int>(points.size()));
 }
 
 // Coincident points and fewer than three points fit no plane: NaN normals.
