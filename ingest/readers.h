@@ -16,7 +16,7 @@ Scan readXyz(std::string_view bytes);  // XYZ, XYZN, PTS and whitespace columns
 Scan readOff(std::string_view bytes);
 Scan readObj(std::string_view bytes);
 Scan readStl(std::string_view bytes);
-Scan readLas(std::string_view bytes);  // LAS 1.0-1.4; LAZ refused by name
+Scan readLas(std::string_view bytes);  // LAS 1.0-1.4, and LAZ (LASzip-compressed)
 
 enum class PlyEncoding { Ascii, BinaryLittleEndian };
 // Local: float positions in the scan's frame, its origin in an apo_origin
