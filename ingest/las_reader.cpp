@@ -187,9 +187,18 @@ Scan readPoints(std::string_view records, std::size_t recordsAt, const Header& h
 }
 
 // What the LAZ decoder needs of the header.
-laz::PointRecords lazRecords(const Header& header) {
+laz::PointRecords lazLayout(const Header& header) {
   return {header.headerSize, header.vlrCount,   header.pointOffset, header.format,
           header.recordLength, header.pointCount, header.pointCountAt};
+}
+
+// The points' raw records, decompressed when the file is LAZ (with a read
+// note saying how it was compressed).
+std::string decompressedRecords(std::string_view bytes, const Header& header, std::vector<std::string>& notes) {
+  checkHasPoints(header);
+  laz::Decompressed laz = laz::decompressPoints(bytes, lazLayout(header));
+  notes.push_back(std::move(laz.summary));
+  return std::move(laz.records);
 }
 
 }  // namespace
@@ -198,15 +207,9 @@ Scan readLas(std::string_view bytes) {
   const Header header = parseHeader(bytes);
   std::vector<std::string> notes;
   noteVlrProblems(bytes, header, notes);
-  Scan scan;
-  if (header.compressed) {
-    checkHasPoints(header);
-    const laz::Decompressed laz = laz::decompressPoints(bytes, lazRecords(header));
-    scan = readPoints(laz.records, header.pointOffset, header);
-    notes.push_back(laz.summary);
-  } else {
-    scan = readPoints(bytes.substr(header.pointOffset), header.pointOffset, header);
-  }
+  const std::string decompressed = header.compressed ? decompressedRecords(bytes, header, notes) : std::string();
+  Scan scan = readPoints(header.compressed ? std::string_view(decompressed) : bytes.substr(header.pointOffset),
+                         header.pointOffset, header);
   notes.push_back(fmt::format("LAS 1.{}, point format {}: GPS time, scan angle, user data and point source id not kept",
                               header.versionMinor, header.format));
   if (header.recordLength > kFormatSize[header.format])
@@ -215,6 +218,16 @@ Scan readLas(std::string_view bytes) {
                                 kFormatSize[header.format]));
   scan.readNotes.insert(scan.readNotes.begin(), notes.begin(), notes.end());
   return scan;
+}
+
+std::string lasPointRecords(std::string_view bytes) {
+  const Header header = parseHeader(bytes);
+  std::vector<std::string> notes;
+  if (header.compressed) return decompressedRecords(bytes, header, notes);
+  parse::checkCountFits(header.pointCount, header.recordLength, bytes.size() - header.pointOffset,
+                        fmt::format("LAS points in format {}", header.format), header.pointOffset);
+  checkHasPoints(header);
+  return std::string(bytes.substr(header.pointOffset, header.pointCount * header.recordLength));
 }
 
 }  // namespace apo::readers

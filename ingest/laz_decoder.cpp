@@ -37,6 +37,10 @@ constexpr std::uint32_t kVariableChunks = 0xFFFFFFFFU;
 constexpr std::uint64_t kMostPointsPerByte = 4096;
 // Points decoded between checks that the decoder has not run off its bytes.
 constexpr std::uint64_t kPointsPerBatch = 4096;
+// LASzip rarely compresses more than tenfold: the records' memory is taken in
+// one go up to this many times the compressed bytes, and beyond it grows only
+// as points are decoded (a claimed count is not trusted with memory).
+constexpr std::uint64_t kReservedBytesPerCompressedByte = 32;
 
 enum Compressor : std::uint16_t { kPointwise = 1, kPointwiseChunked = 2, kLayeredChunked = 3 };
 
@@ -146,9 +150,11 @@ LaszipVlr parseLaszipVlr(std::string_view file, const PointRecords& las) {
                     read<std::uint16_t>(file, itemAt + 4, "LASzip item version")};
     checkItemDecodable(item, vlr.compressor, itemAt, i);
     const std::uint16_t expected = fixedItemSize(item.type);
-    if ((expected != 0 && item.size != expected) || item.size == 0)
-      fail("byte {}: LASzip VLR item {}: {} of {} bytes (it has {})", itemAt + 2, i,
-           itemName(static_cast<std::uint16_t>(item.type)), item.size, expected ? expected : 1);
+    if (expected != 0 && item.size != expected)
+      fail("byte {}: LASzip VLR item {}: {} takes {} bytes, not {}", itemAt + 2, i,
+           itemName(static_cast<std::uint16_t>(item.type)), expected, item.size);
+    if (item.size == 0)
+      fail("byte {}: LASzip VLR item {}: {} of 0 bytes", itemAt + 2, i, itemName(static_cast<std::uint16_t>(item.type)));
     recordBytes += item.size;
     vlr.items.push_back(item);
   }
@@ -199,7 +205,7 @@ class PointDecoder {
       return layered_.empty() ? decodePointwise(begin, end, chunk.points, records, firstAt)
                               : decodeLayered(begin, end, chunk, index, records, firstAt);
     } catch (const CorruptStream& corrupt) {
-      fail("byte {}: LAZ chunk {} is corrupt: {}", chunk.begin, index, corrupt.what());
+      fail("byte {}: LAZ chunk {} is truncated or corrupt: {}", chunk.begin, index, corrupt.what());
     }
   }
 
@@ -226,7 +232,7 @@ class PointDecoder {
         for (std::size_t i = 0; i < pointwise_.size(); ++i) pointwise_[i]->decode(decoder_, out + offsets_[i]);
       remaining -= batch;
     }
-    if (decoder_.overran()) throw CorruptStream("its compressed points end before its last point (truncated?)");
+    if (decoder_.overran()) throw CorruptStream("its compressed data ends before its last point");
     return static_cast<std::size_t>(decoder_.position() - begin);
   }
 
@@ -267,7 +273,7 @@ class PointDecoder {
         for (std::size_t i = 0; i < layered_.size(); ++i) layered_[i]->decode(out + offsets_[i], channel);
       remaining -= batch;
     }
-    if (anyLayerOverran()) throw CorruptStream("a layer's compressed data ends before its last point (truncated?)");
+    if (anyLayerOverran()) throw CorruptStream("a layer's compressed data ends before its last point");
     return static_cast<std::size_t>(total);
   }
 
@@ -406,6 +412,7 @@ Decompressed decompressPoints(std::string_view file, const PointRecords& las) {
   Decompressed result;
   result.summary = describe(vlr, chunks.size());
   if (!tableNote.empty()) result.summary += "; " + tableNote;
+  result.records.reserve(std::min(las.pointCount * las.recordLength, kReservedBytesPerCompressedByte * dataBytes));
   PointDecoder decoder(vlr, las.recordLength);
   std::size_t sequentialAt = las.pointsAt + 8;
   for (std::size_t i = 0; i < chunks.size(); ++i) {
