@@ -174,7 +174,10 @@ LaszipVlr parseLaszipVlr(std::string_view file, const PointRecords& las) {
 
 // A chunk's place in the file and its point count.
 struct Chunk {
-  std::size_t begin = 0, end = 0;  // its bytes (end: of the point data, when not known)
+  // The begin of a chunk read in sequence: where the one before it ended.
+  static constexpr std::size_t kAfterThePrevious = 0;
+  std::size_t begin = kAfterThePrevious;
+  std::size_t end = 0;  // of its bytes, or of the file when not known
   std::uint64_t points = 0;
 };
 
@@ -361,7 +364,7 @@ std::vector<Chunk> planChunks(std::string_view file, const PointRecords& las, co
     if (chunks > (file.size() - las.pointsAt - 8) / las.recordLength)
       fail("byte {}: the header claims {} points, {} chunks of {}: more than the file's {} bytes of chunks hold",
            las.pointCountAt, las.pointCount, chunks, vlr.chunkSize, file.size() - las.pointsAt - 8);
-    std::vector<Chunk> sequence(chunks, Chunk{0, file.size(), vlr.chunkSize});
+    std::vector<Chunk> sequence(chunks, Chunk{Chunk::kAfterThePrevious, file.size(), vlr.chunkSize});
     sequence.back().points = las.pointCount - (chunks - 1) * vlr.chunkSize;
     return sequence;
   }
@@ -417,8 +420,7 @@ Decompressed decompressPoints(std::string_view file, const PointRecords& las) {
   std::size_t sequentialAt = las.pointsAt + 8;
   for (std::size_t i = 0; i < chunks.size(); ++i) {
     Chunk chunk = chunks[i];
-    // Chunks read in sequence start where the previous one ended.
-    if (chunk.begin == 0) chunk.begin = sequentialAt;
+    if (chunk.begin == Chunk::kAfterThePrevious) chunk.begin = sequentialAt;
     sequentialAt = chunk.begin + decoder.decodeChunk(file, chunk, i, result.records);
   }
   return result;
