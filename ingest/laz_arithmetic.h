@@ -303,18 +303,22 @@ class IntegerDecoder {
     for (std::uint32_t i = 0; i < contexts; ++i) kModels_.emplace_back(correctorBits_ + 1);
     correctorModels_.reserve(correctorBits_);
     for (std::uint32_t i = 1; i <= correctorBits_; ++i) correctorModels_.emplace_back(1U << std::min(i, bitsHigh_));
+    // Constructed models are fresh for the first chunk.
+    kModelsResetIn_.assign(kModels_.size(), chunk_);
+    correctorModelsResetIn_.assign(correctorModels_.size(), chunk_);
   }
 
-  // All models back to their start (a new chunk).
+  // All models back to their start (a new chunk). The symbol models are
+  // reset on their first use after this: a small chunk (COPC's) uses few of
+  // the dozens an integer decoder has.
   void reset() {
-    for (SymbolModel& m : kModels_) m.reset();
+    ++chunk_;
     corrector0_.reset();
-    for (SymbolModel& m : correctorModels_) m.reset();
   }
 
   std::int32_t decode(ArithmeticDecoder& decoder, std::int32_t predicted, std::uint32_t context = 0) {
     std::uint32_t real = static_cast<std::uint32_t>(predicted) +
-                         static_cast<std::uint32_t>(readCorrector(decoder, kModels_[context]));
+                         static_cast<std::uint32_t>(readCorrector(decoder, context));
     if (static_cast<std::int32_t>(real) < 0) real += correctorRange_;
     else if (real >= correctorRange_) real -= correctorRange_;
     return static_cast<std::int32_t>(real);
@@ -324,18 +328,24 @@ class IntegerDecoder {
   std::uint32_t k() const { return k_; }
 
  private:
-  std::int32_t readCorrector(ArithmeticDecoder& decoder, SymbolModel& kModel) {
-    k_ = decoder.decodeSymbol(kModel);
+  // Models_[i] reset if this chunk has not used it yet.
+  SymbolModel& fresh(std::vector<SymbolModel>& models, std::vector<std::uint64_t>& resetIn, std::size_t i) {
+    if (resetIn[i] != chunk_) {
+      models[i].reset();
+      resetIn[i] = chunk_;
+    }
+    return models[i];
+  }
+
+  std::int32_t readCorrector(ArithmeticDecoder& decoder, std::uint32_t context) {
+    k_ = decoder.decodeSymbol(fresh(kModels_, kModelsResetIn_, context));
     // k = 0: the corrector is 0 or 1.
     if (k_ == 0) return static_cast<std::int32_t>(decoder.decodeBit(corrector0_));
     if (k_ >= 32) return correctorMin_;
-    std::uint32_t c;
-    if (k_ <= bitsHigh_) {
-      c = decoder.decodeSymbol(correctorModels_[k_ - 1]);
-    } else {
-      // The high bits through a model, the low k - bitsHigh raw.
+    std::uint32_t c = decoder.decodeSymbol(fresh(correctorModels_, correctorModelsResetIn_, k_ - 1));
+    // Above bitsHigh bits, the low k - bitsHigh come raw.
+    if (k_ > bitsHigh_) {
       const std::uint32_t lowBits = k_ - bitsHigh_;
-      c = decoder.decodeSymbol(correctorModels_[k_ - 1]);
       c = (c << lowBits) | decoder.readBits(lowBits);
     }
     // Back from [0, 2^k) to [-(2^k - 1), -2^(k-1)] or [2^(k-1) + 1, 2^k].
@@ -347,9 +357,12 @@ class IntegerDecoder {
   std::uint32_t correctorBits_ = 0, correctorRange_ = 0;
   std::int32_t correctorMin_ = 0;
   std::uint32_t k_ = 0;
+  std::uint64_t chunk_ = 1;  // models whose resetIn is behind it start afresh
   std::vector<SymbolModel> kModels_;
+  std::vector<std::uint64_t> kModelsResetIn_;
   BitModel corrector0_;
   std::vector<SymbolModel> correctorModels_;  // [k - 1] for k = 1 .. correctorBits
+  std::vector<std::uint64_t> correctorModelsResetIn_;
 };
 
 }  // namespace apo::laz
