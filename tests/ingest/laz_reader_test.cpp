@@ -169,6 +169,31 @@ TEST(LazReader, ReadsTheLargeCopcFileToItsHeadersCount) {
   EXPECT_THAT(scan.readNotes, testing::Contains(HasSubstr("15 chunks of varying size")));
 }
 
+// LASzip's chunk table offset of -1 (a writer that could not seek back wrote
+// the offset at the file's end instead), and a missing table (the offset
+// points at itself: the writer was interrupted), which fixed-size chunks can
+// do without but COPC's variable ones cannot.
+TEST(LazReader, FindsTheChunkTableAtTheEndOrReadsTheChunksWithoutIt) {
+  const std::string good = corpusFile("lone-star-split-4.laz");  // 3 chunks, points at 586
+  const std::string expected = readers::lasPointRecords(good);
+  std::int64_t tableAt = 0;
+  std::memcpy(&tableAt, good.data() + 586, 8);
+  std::string atTheEnd = good + std::string(8, '\0');
+  put<std::int64_t>(atTheEnd, 586, -1);
+  put<std::int64_t>(atTheEnd, good.size(), tableAt);
+  EXPECT_EQ(readers::lasPointRecords(atTheEnd), expected);
+  std::string withoutTable = good;
+  put<std::int64_t>(withoutTable, 586, 586);
+  EXPECT_EQ(readers::lasPointRecords(withoutTable), expected);
+  EXPECT_THAT(readers::readLas(withoutTable).readNotes,
+              testing::Contains(HasSubstr("the LAZ chunk table is missing (its writer was interrupted); the chunks "
+                                          "were read one after another")));
+  std::string copc = corpusFile("1.2-with-color.copc.laz");  // points at 1709
+  put<std::int64_t>(copc, 1709, 1709);
+  EXPECT_EQ(lasFailure(copc), "byte 1709: the LAZ chunks vary in size, which only the chunk table says, and the LAZ "
+                              "chunk table is missing (its writer was interrupted)");
+}
+
 // Every cut of a real file (past its header and VLRs) is refused, never read
 // past its end: the chunk table is gone, the chunks are read in sequence and
 // the one the cut falls in runs dry.
