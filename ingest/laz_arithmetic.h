@@ -12,7 +12,6 @@
 
 #include <algorithm>
 #include <cstdint>
-#include <cstring>
 #include <memory>
 #include <vector>
 
@@ -78,8 +77,6 @@ class SymbolModel {
     decoderTable_ = tableSize_ ? symbolCount_ + symbols_ : nullptr;
     reset();
   }
-
-  std::uint32_t symbols() const { return symbols_; }
 
   // Back to all symbols equally likely (a new chunk).
   void reset() {
