@@ -102,7 +102,8 @@ void checkItemDecodable(const Item& item, std::uint16_t compressor, std::size_t 
   if (layeredType != (compressor == kLayeredChunked))
     fail("byte {}: LASzip VLR item {}: {} cannot be coded by compressor {} ({})", at, index, itemName(type), compressor,
          compressorName(compressor));
-  const bool decodable = layeredType ? makeLayeredItemDecoder(item) != nullptr : makePointwiseItemDecoder(item) != nullptr;
+  const bool decodable =
+      layeredType ? makeLayeredItemDecoder(item) != nullptr : makePointwiseItemDecoder(item) != nullptr;
   if (!decodable)
     fail("byte {}: LASzip VLR item {}: {} version {} is not supported (versions {})", at + 4, index, itemName(type),
          item.version, layeredType ? "3" : "1 and 2");
@@ -154,7 +155,8 @@ LaszipVlr parseLaszipVlr(std::string_view file, const PointRecords& las) {
       fail("byte {}: LASzip VLR item {}: {} takes {} bytes, not {}", itemAt + 2, i,
            itemName(static_cast<std::uint16_t>(item.type)), expected, item.size);
     if (item.size == 0)
-      fail("byte {}: LASzip VLR item {}: {} of 0 bytes", itemAt + 2, i, itemName(static_cast<std::uint16_t>(item.type)));
+      fail("byte {}: LASzip VLR item {}: {} of 0 bytes", itemAt + 2, i,
+           itemName(static_cast<std::uint16_t>(item.type)));
     recordBytes += item.size;
     vlr.items.push_back(item);
   }
@@ -213,7 +215,7 @@ class PointDecoder {
   }
 
  private:
-  std::uint8_t* recordAt(std::string& records, std::size_t at) {
+  static std::uint8_t* recordAt(std::string& records, std::size_t at) {
     return reinterpret_cast<std::uint8_t*>(records.data()) + at;
   }
 
@@ -226,7 +228,8 @@ class PointDecoder {
 
   std::size_t decodePointwise(const std::uint8_t* begin, const std::uint8_t* end, std::uint64_t points,
                               std::string& records, std::size_t firstAt) {
-    for (std::size_t i = 0; i < pointwise_.size(); ++i) pointwise_[i]->startChunk(recordAt(records, firstAt) + offsets_[i]);
+    for (std::size_t i = 0; i < pointwise_.size(); ++i)
+      pointwise_[i]->startChunk(recordAt(records, firstAt) + offsets_[i]);
     decoder_.start(begin + recordLength_, end);
     for (std::uint64_t remaining = points - 1; remaining > 0 && !decoder_.overran();) {
       const std::uint64_t batch = growBatch(records, remaining, recordLength_);
@@ -408,8 +411,8 @@ Decompressed decompressPoints(std::string_view file, const PointRecords& las) {
   if (las.pointCount == 0) return {{}, describe(vlr, 0)};
   const std::uint64_t dataBytes = file.size() - las.pointsAt;
   if (las.pointCount > kMostPointsPerByte * dataBytes)
-    fail("byte {}: the header claims {} points, more than LASzip could code in the {} bytes of point data", las.pointCountAt,
-         las.pointCount, dataBytes);
+    fail("byte {}: the header claims {} points, more than LASzip could code in the {} bytes of point data",
+         las.pointCountAt, las.pointCount, dataBytes);
   std::string tableNote;
   const std::vector<Chunk> chunks = planChunks(file, las, vlr, tableNote);
   Decompressed result;

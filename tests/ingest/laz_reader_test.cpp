@@ -278,7 +278,8 @@ TEST(LazReader, CorruptedChunksAreReadOrRefusedNeverCrash) {
     std::uniform_int_distribution<std::size_t> anywhere(pointsAt, good.size() - 1);
     for (int trial = 0; trial < 60; ++trial) {
       std::string bytes = good;
-      for (int flips = 1 + trial % 4; flips > 0; --flips) bytes[anywhere(random)] ^= static_cast<char>(1 + random() % 255);
+      for (int flips = 1 + trial % 4; flips > 0; --flips)
+        bytes[anywhere(random)] ^= static_cast<char>(1 + random() % 255);
       try {
         const Scan scan = readers::readLas(bytes);
         EXPECT_EQ(scan.points.size(), readers::readLas(good).points.size()) << "trial " << trial;
