@@ -119,6 +119,21 @@ def las_seeds():
             shutil.copyfile(os.path.join(source, name), os.path.join(ROOT, "las", name))
 
 
+def laz_seeds():
+    """The LAZ test files (../shared/data/laz, whose README gives each one's
+    source, commit and licence: PDAL, LAZperf, laspy, LASzip), all under
+    600 KB (not the 2.7 MB lone-star.copc.laz); the LAZ reader's tests read
+    them from here too."""
+    source = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "shared", "data", "laz")
+    if not os.path.isdir(source):
+        return
+    os.makedirs(os.path.join(ROOT, "laz"), exist_ok=True)
+    for name in sorted(os.listdir(source)):
+        path = os.path.join(source, name)
+        if name.endswith(".laz") and os.path.getsize(path) < 600 * 1024:
+            shutil.copyfile(path, os.path.join(ROOT, "laz", name))
+
+
 def apo_seeds():
     golden = os.path.join(os.path.dirname(ROOT), "..", "tests", "golden", "v1", "scan.apo")
     if os.path.exists(golden):
@@ -140,5 +155,6 @@ if __name__ == "__main__":
     hostile_seeds()
     config_seeds()
     las_seeds()
+    laz_seeds()
     apo_seeds()
     n3t_seeds()

@@ -4,9 +4,11 @@
 // intensity, RGB, classification and return numbers are kept; GPS time,
 // scan angle, user data, point source id, waveform packets and extra bytes
 // are skipped by the record length the header declares (and said so in the
-// scan's notes). LAZ (LASzip-compressed points) is refused by name: there is
-// no LAZ codec here. Every count and offset the header claims is checked
-// against the file's size before anything is allocated for it.
+// scan's notes). LAZ (LASzip-compressed points) is decompressed first into
+// the same raw records (laz_decoder.h), which then take the same path. Every
+// count and offset the header claims is checked against the file's size
+// before anything is allocated for it.
+#include "ingest/laz_decoder.h"
 #include "ingest/parse_util.h"
 #include "ingest/positions.h"
 #include "ingest/readers.h"
@@ -43,8 +45,10 @@ struct Header {
   std::uint32_t pointOffset = 0;
   std::uint32_t vlrCount = 0;
   int format = 0;
+  bool compressed = false;  // LAZ: the format byte's bit 7 (or LASzip's old bit 6)
   std::uint16_t recordLength = 0;
   std::uint64_t pointCount = 0;
+  std::size_t pointCountAt = 107;  // the legacy count's place, or the 64-bit one's
   std::array<double, 3> scale{}, offset{};
 };
 
@@ -72,10 +76,7 @@ Header parseHeader(std::string_view bytes) {
   header.vlrCount = read<std::uint32_t>(bytes, 100, "number of VLRs");
   const std::uint8_t formatByte = byteAt(bytes, 104);
   header.recordLength = read<std::uint16_t>(bytes, 105, "point record length");
-  if (formatByte & 0xC0)
-    fail("byte 104: the points are LASzip-compressed (LAZ, point format byte {:#04x}): apo has no LAZ codec; "
-         "decompress the file first (laszip -i FILE.laz -o FILE.las, or pdal translate FILE.laz FILE.las)",
-         formatByte);
+  header.compressed = (formatByte & 0xC0) != 0;
   header.format = formatByte & 0x3F;
   if (header.format > 10) fail("byte 104: point data format {}: LAS defines formats 0 to 10", header.format);
   const std::size_t minimumHeader =
@@ -94,7 +95,10 @@ Header parseHeader(std::string_view bytes) {
   header.pointCount = read<std::uint32_t>(bytes, 107, "number of point records");
   if (header.versionMinor >= 4) {
     const auto count64 = read<std::uint64_t>(bytes, 247, "number of point records (64-bit)");
-    if (count64 != 0) header.pointCount = count64;
+    if (count64 != 0) {
+      header.pointCount = count64;
+      header.pointCountAt = 247;
+    }
   }
   for (int axis = 0; axis < 3; ++axis) {
     header.scale[axis] = read<double>(bytes, 131 + 8 * axis, "scale factor");
@@ -137,11 +141,17 @@ std::vector<Rgb8> colorsToBytes(const std::vector<std::array<std::uint16_t, 3>>&
   return bytes;
 }
 
-Scan readPoints(std::string_view bytes, const Header& header) {
-  parse::checkCountFits(header.pointCount, header.recordLength, bytes.size() - header.pointOffset,
-                        fmt::format("LAS points in format {}", header.format),
-                        header.pointOffset);
-  if (header.pointCount == 0) fail("byte 107: no points: the header's point count is 0");
+void checkHasPoints(const Header& header) {
+  if (header.pointCount == 0) fail("byte {}: no points: the header's point count is 0", header.pointCountAt);
+}
+
+// The points from their raw records, which start at `records`' byte 0 (the
+// file's point data, or the LAZ points decompressed); `recordsAt` is that
+// byte's offset in the file, for messages.
+Scan readPoints(std::string_view records, std::size_t recordsAt, const Header& header) {
+  parse::checkCountFits(header.pointCount, header.recordLength, records.size(),
+                        fmt::format("LAS points in format {}", header.format), recordsAt);
+  checkHasPoints(header);
   const auto count = static_cast<std::size_t>(header.pointCount);
   const bool extended = header.format >= 6;
   const std::uint16_t rgbAt = kRgbOffset[header.format];
@@ -156,23 +166,39 @@ Scan readPoints(std::string_view bytes, const Header& header) {
   std::vector<std::array<std::uint16_t, 3>> colors;
   if (rgbAt != 0) colors.reserve(count);
   for (std::size_t i = 0; i < count; ++i) {
-    const std::size_t at = header.pointOffset + i * header.recordLength;
+    const std::size_t at = i * header.recordLength;
     std::array<double, 3> world{};
     for (int axis = 0; axis < 3; ++axis)
-      world[axis] = read<std::int32_t>(bytes, at + 4 * axis, "coordinate") * header.scale[axis] + header.offset[axis];
+      world[axis] = read<std::int32_t>(records, at + 4 * axis, "coordinate") * header.scale[axis] + header.offset[axis];
     positions.push(world[0], world[1], world[2]);
-    points.intensities.push_back(read<std::uint16_t>(bytes, at + 12, "intensity"));
-    const std::uint8_t returns = byteAt(bytes, at + 14);
+    points.intensities.push_back(read<std::uint16_t>(records, at + 12, "intensity"));
+    const std::uint8_t returns = byteAt(records, at + 14);
     points.returnNumbers.push_back(extended ? returns & 0x0F : returns & 0x07);
     points.returnCounts.push_back(extended ? returns >> 4 : (returns >> 3) & 0x07);
-    points.classifications.push_back(extended ? byteAt(bytes, at + 16) : byteAt(bytes, at + 15) & 0x1F);
+    points.classifications.push_back(extended ? byteAt(records, at + 16) : byteAt(records, at + 15) & 0x1F);
     if (rgbAt != 0)
-      colors.push_back({read<std::uint16_t>(bytes, at + rgbAt, "red"), read<std::uint16_t>(bytes, at + rgbAt + 2, "green"),
-                        read<std::uint16_t>(bytes, at + rgbAt + 4, "blue")});
+      colors.push_back({read<std::uint16_t>(records, at + rgbAt, "red"),
+                        read<std::uint16_t>(records, at + rgbAt + 2, "green"),
+                        read<std::uint16_t>(records, at + rgbAt + 4, "blue")});
   }
   if (rgbAt != 0) points.colors = colorsToBytes(colors);
   positions.finishInto(scan);
   return scan;
+}
+
+// What the LAZ decoder needs of the header.
+laz::PointRecords lazLayout(const Header& header) {
+  return {header.headerSize, header.vlrCount,   header.pointOffset, header.format,
+          header.recordLength, header.pointCount, header.pointCountAt};
+}
+
+// The points' raw records, decompressed when the file is LAZ (with a read
+// note saying how it was compressed).
+std::string decompressedRecords(std::string_view bytes, const Header& header, std::vector<std::string>& notes) {
+  checkHasPoints(header);
+  laz::Decompressed laz = laz::decompressPoints(bytes, lazLayout(header));
+  notes.push_back(std::move(laz.summary));
+  return std::move(laz.records);
 }
 
 }  // namespace
@@ -181,7 +207,9 @@ Scan readLas(std::string_view bytes) {
   const Header header = parseHeader(bytes);
   std::vector<std::string> notes;
   noteVlrProblems(bytes, header, notes);
-  Scan scan = readPoints(bytes, header);
+  const std::string decompressed = header.compressed ? decompressedRecords(bytes, header, notes) : std::string();
+  Scan scan = readPoints(header.compressed ? std::string_view(decompressed) : bytes.substr(header.pointOffset),
+                         header.pointOffset, header);
   notes.push_back(fmt::format("LAS 1.{}, point format {}: GPS time, scan angle, user data and point source id not kept",
                               header.versionMinor, header.format));
   if (header.recordLength > kFormatSize[header.format])
@@ -190,6 +218,16 @@ Scan readLas(std::string_view bytes) {
                                 kFormatSize[header.format]));
   scan.readNotes.insert(scan.readNotes.begin(), notes.begin(), notes.end());
   return scan;
+}
+
+std::string lasPointRecords(std::string_view bytes) {
+  const Header header = parseHeader(bytes);
+  std::vector<std::string> notes;
+  if (header.compressed) return decompressedRecords(bytes, header, notes);
+  parse::checkCountFits(header.pointCount, header.recordLength, bytes.size() - header.pointOffset,
+                        fmt::format("LAS points in format {}", header.format), header.pointOffset);
+  checkHasPoints(header);
+  return std::string(bytes.substr(header.pointOffset, header.pointCount * header.recordLength));
 }
 
 }  // namespace apo::readers

@@ -16,7 +16,11 @@ Scan readXyz(std::string_view bytes);  // XYZ, XYZN, PTS and whitespace columns
 Scan readOff(std::string_view bytes);
 Scan readObj(std::string_view bytes);
 Scan readStl(std::string_view bytes);
-Scan readLas(std::string_view bytes);  // LAS 1.0-1.4; LAZ refused by name
+Scan readLas(std::string_view bytes);  // LAS 1.0-1.4, and LAZ (LASzip-compressed)
+// A LAS or LAZ file's point records as an uncompressed LAS file holds them
+// (the header's count times its record length), LAZ decompressed; refused
+// as readLas refuses. For cross-checks against other LAZ decoders.
+std::string lasPointRecords(std::string_view bytes);
 
 enum class PlyEncoding { Ascii, BinaryLittleEndian };
 // Local: float positions in the scan's frame, its origin in an apo_origin
