@@ -1,0 +1,942 @@
+// E57 (ASTM E2807) 1.0: every scan of /data3D, cartesian or spherical, with
+// the bit-pack codec (the one codec writers use), read into one Scan: each
+// scan's points moved by its pose (rotation, then translation, in double)
+// into the file's common frame and then into the local frame (positions.h);
+// each scan a ScanStation; intensity, colour, row and column indices, return
+// numbers and surface normals (the libe57.org `nor:` extension) kept.
+// Points a scanner marked invalid are skipped and counted. Images, other
+// fields and metadata are named in the scan's notes, not read.
+//
+// The layers, outside in: pages and their CRCs (e57_pages.h), the file
+// header and the XML section (parsed with pugixml), then each scan's
+// compressed vector section, its packets and bit streams (e57_format.h).
+// Every offset and count the file claims is checked against its size before
+// anything is allocated for it; errors name the byte offset or the XML
+// element's path (/data3D/0/points/prototype/cartesianX).
+#include "ingest/e57_format.h"
+#include "ingest/e57_pages.h"
+#include "ingest/parse_util.h"
+#include "ingest/positions.h"
+#include "ingest/readers.h"
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+#include <pugixml.hpp>
+
+#include <algorithm>
+#include <array>
+#include <cctype>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <limits>
+#include <numeric>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+namespace apo::readers {
+namespace {
+
+using e57::PagedFile;
+using parse::fail;
+
+// ---------------------------------------------------------------- header
+
+struct FileHeader {
+  std::uint32_t major = 0, minor = 0;
+  std::uint64_t physicalLength = 0, xmlPhysicalOffset = 0, xmlLength = 0, pageSize = 0;
+};
+
+template <class T>
+T readLittle(std::string_view bytes, std::size_t at) {
+  return parse::BinaryCursor(bytes, at).read<T>(false, "E57 field");
+}
+
+FileHeader parseFileHeader(std::string_view file) {
+  if (file.size() < 8 || file.substr(0, 8) != e57::kSignature) fail("byte 0: not an E57 file (no 'ASTM-E57' signature)");
+  if (file.size() < e57::kPageSize)
+    fail("byte {}: the file ends inside its first {}-byte page (truncated?)", file.size(), e57::kPageSize);
+  FileHeader header;
+  header.major = readLittle<std::uint32_t>(file, 8);
+  header.minor = readLittle<std::uint32_t>(file, 12);
+  header.physicalLength = readLittle<std::uint64_t>(file, 16);
+  header.xmlPhysicalOffset = readLittle<std::uint64_t>(file, 24);
+  header.xmlLength = readLittle<std::uint64_t>(file, 32);
+  header.pageSize = readLittle<std::uint64_t>(file, 40);
+  if (header.major != 1) fail("byte 8: E57 version {}.{}: apo reads version 1", header.major, header.minor);
+  if (header.pageSize != e57::kPageSize)
+    fail("byte 40: page size {}: E57 files have {}-byte pages", header.pageSize, e57::kPageSize);
+  if (header.physicalLength != file.size())
+    fail("byte 16: the header gives the file's length as {} bytes, but it has {} (truncated or padded?)",
+         header.physicalLength, file.size());
+  return header;
+}
+
+// ---------------------------------------------------------------- XML helpers
+
+// An XML element and its path from the root, for messages.
+struct Node {
+  pugi::xml_node xml;
+  std::string path;
+
+  explicit operator bool() const { return bool(xml); }
+  Node child(const char* name) const { return {xml.child(name), path + "/" + name}; }
+  std::string_view type() const { return xml.attribute("type").value(); }
+  std::string_view text() const {
+    std::string_view text = xml.text().get();
+    while (!text.empty() && std::isspace(static_cast<unsigned char>(text.front()))) text.remove_prefix(1);
+    while (!text.empty() && std::isspace(static_cast<unsigned char>(text.back()))) text.remove_suffix(1);
+    return text;
+  }
+};
+
+std::int64_t integerOrFail(std::string_view token, std::int64_t fallback, const std::string& where) {
+  if (token.empty()) return fallback;
+  std::int64_t value = 0;
+  if (!parse::parseInteger(token, value)) fail("XML element {}: expected an integer, got {}", where, parse::quoted(token));
+  return value;
+}
+
+double doubleOrFail(std::string_view token, double fallback, const std::string& where) {
+  if (token.empty()) return fallback;
+  double value = 0;
+  if (!parse::parseNumber(token, value)) fail("XML element {}: expected a number, got {}", where, parse::quoted(token));
+  return value;
+}
+
+std::int64_t integerAttribute(const Node& node, const char* name, std::int64_t fallback) {
+  return integerOrFail(node.xml.attribute(name).value(), fallback, fmt::format("{} (attribute {})", node.path, name));
+}
+
+double doubleAttribute(const Node& node, const char* name, double fallback) {
+  return doubleOrFail(node.xml.attribute(name).value(), fallback, fmt::format("{} (attribute {})", node.path, name));
+}
+
+// The value of an Integer, ScaledInteger or Float element (an empty one is
+// 0, as the standard has it).
+double numberOf(const Node& node) {
+  const std::string_view type = node.type();
+  if (type == "Integer") return static_cast<double>(integerOrFail(node.text(), 0, node.path));
+  if (type == "Float") return doubleOrFail(node.text(), 0.0, node.path);
+  if (type == "ScaledInteger")
+    return static_cast<double>(integerOrFail(node.text(), 0, node.path)) * doubleAttribute(node, "scale", 1.0) +
+           doubleAttribute(node, "offset", 0.0);
+  fail("XML element {}: expected an Integer, ScaledInteger or Float element, found type {}", node.path,
+       parse::quoted(type));
+}
+
+std::optional<double> optionalNumber(const Node& parent, const char* name) {
+  const Node node = parent.child(name);
+  if (!node) return std::nullopt;
+  return numberOf(node);
+}
+
+std::string stringOf(const Node& node) { return node ? std::string(node.text()) : std::string(); }
+
+std::vector<Node> childElements(const Node& node) {
+  std::vector<Node> children;
+  std::size_t index = 0;
+  for (pugi::xml_node child : node.xml.children()) {
+    if (child.type() != pugi::node_element) continue;
+    // Vector children are numbered, Structure children named.
+    const bool numbered = node.type() == "Vector";
+    children.push_back({child, node.path + "/" + (numbered ? std::to_string(index) : std::string(child.name()))});
+    ++index;
+  }
+  return children;
+}
+
+// ---------------------------------------------------------------- prototype
+
+enum class Codec { Integer, ScaledInteger, Float32, Float64 };
+
+// What a prototype leaf means to apo; Other fields are checked and skipped.
+enum class Role {
+  X, Y, Z, Range, Azimuth, Elevation, CartesianInvalid, SphericalInvalid, Intensity, Red, Green, Blue, Row, Column,
+  ReturnIndex, ReturnCount, NormalX, NormalY, NormalZ, Other, Count
+};
+
+struct RoleName {
+  const char* name;
+  Role role;
+};
+constexpr RoleName kRoleNames[] = {
+    {"cartesianX", Role::X},
+    {"cartesianY", Role::Y},
+    {"cartesianZ", Role::Z},
+    {"sphericalRange", Role::Range},
+    {"sphericalAzimuth", Role::Azimuth},
+    {"sphericalElevation", Role::Elevation},
+    {"cartesianInvalidState", Role::CartesianInvalid},
+    {"sphericalInvalidState", Role::SphericalInvalid},
+    {"intensity", Role::Intensity},
+    {"colorRed", Role::Red},
+    {"colorGreen", Role::Green},
+    {"colorBlue", Role::Blue},
+    {"rowIndex", Role::Row},
+    {"columnIndex", Role::Column},
+    {"returnIndex", Role::ReturnIndex},
+    {"returnCount", Role::ReturnCount},
+    {"nor:normalX", Role::NormalX},
+    {"nor:normalY", Role::NormalY},
+    {"nor:normalZ", Role::NormalZ},
+};
+
+// One leaf of the prototype: one value per record, in its own bit stream.
+struct Field {
+  std::string name;  // relative to the prototype: "cartesianX", "las:pointSourceId"
+  std::string path;  // for messages
+  Role role = Role::Other;
+  Codec codec = Codec::Integer;
+  int bits = 0;  // per value in the stream
+  std::int64_t minimum = 0, maximum = 0;
+  double scale = 1.0, offset = 0.0;
+  // The declared range of the values, for limits the file does not give
+  // elsewhere (Float fields: their minimum and maximum attributes, if any).
+  std::optional<std::array<double, 2>> declared;
+};
+
+Role roleOf(const std::string& name) {
+  for (const RoleName& entry : kRoleNames)
+    if (name == entry.name) return entry.role;
+  return Role::Other;
+}
+
+Field fieldOf(const Node& node, const std::string& name) {
+  Field field;
+  field.name = name;
+  field.path = node.path;
+  field.role = roleOf(name);
+  const std::string_view type = node.type();
+  if (type == "Integer" || type == "ScaledInteger") {
+    field.codec = type == "Integer" ? Codec::Integer : Codec::ScaledInteger;
+    field.minimum = integerAttribute(node, "minimum", std::numeric_limits<std::int64_t>::min());
+    field.maximum = integerAttribute(node, "maximum", std::numeric_limits<std::int64_t>::max());
+    if (field.minimum > field.maximum)
+      fail("XML element {}: minimum {} is above maximum {}", node.path, field.minimum, field.maximum);
+    if (field.codec == Codec::ScaledInteger) {
+      field.scale = doubleAttribute(node, "scale", 1.0);
+      field.offset = doubleAttribute(node, "offset", 0.0);
+      if (!std::isfinite(field.scale) || field.scale == 0.0 || !std::isfinite(field.offset))
+        fail("XML element {}: scale {} and offset {} must be finite, the scale non-zero", node.path, field.scale,
+             field.offset);
+    }
+    field.bits = e57::bitsForRange(field.minimum, field.maximum);
+    field.declared = std::array<double, 2>{static_cast<double>(field.minimum) * field.scale + field.offset,
+                                           static_cast<double>(field.maximum) * field.scale + field.offset};
+    return field;
+  }
+  if (type == "Float") {
+    const std::string_view precision = node.xml.attribute("precision").value();
+    if (precision != "" && precision != "single" && precision != "double")
+      fail("XML element {}: precision {}: E57 floats are 'single' or 'double'", node.path, parse::quoted(precision));
+    field.codec = precision == "single" ? Codec::Float32 : Codec::Float64;
+    field.bits = precision == "single" ? 32 : 64;
+    if (node.xml.attribute("minimum") && node.xml.attribute("maximum"))
+      field.declared = std::array<double, 2>{doubleAttribute(node, "minimum", 0.0), doubleAttribute(node, "maximum", 0.0)};
+    return field;
+  }
+  fail("XML element {}: a {} field in a prototype: apo reads Integer, ScaledInteger and Float fields", node.path,
+       parse::quoted(type));
+}
+
+// The prototype's leaves depth first: the order of the bit streams.
+void collectFields(const Node& node, const std::string& prefix, int depth, std::vector<Field>& fields) {
+  constexpr int kMaxDepth = 16;  // real prototypes nest one or two levels; this bounds the recursion
+  if (depth > kMaxDepth) fail("XML element {}: prototype nested deeper than {} levels", node.path, kMaxDepth);
+  for (const Node& child : childElements(node)) {
+    const std::string name = prefix + child.xml.name();
+    if (child.type() == "Structure" || child.type() == "Vector")
+      collectFields(child, name + "/", depth + 1, fields);
+    else
+      fields.push_back(fieldOf(child, name));
+  }
+}
+
+void checkCodecs(const Node& points) {
+  const Node codecs = points.child("codecs");
+  if (!codecs) return;
+  for (const Node& codec : childElements(codecs)) {
+    bool bitPack = false;
+    for (const Node& part : childElements(codec)) bitPack |= std::string_view(part.xml.name()) == "bitPackCodec";
+    if (!bitPack)
+      fail("XML element {}: a codec other than bitPackCodec: apo reads bit-packed E57 points only", codec.path);
+  }
+}
+
+// ---------------------------------------------------------------- scans
+
+struct Pose {
+  std::array<double, 4> rotationWxyz = {1, 0, 0, 0};
+  std::array<double, 3> translation = {0, 0, 0};
+  std::array<std::array<double, 3>, 3> matrix = {{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}};
+  bool identity = true;
+};
+
+// A scan as /data3D describes it.
+struct ScanHeader {
+  std::string path;  // "/data3D/0"
+  std::string name;  // its name, else its guid, else its path
+  std::uint64_t fileOffset = 0, recordCount = 0;
+  std::vector<Field> fields;
+  bool hasPose = false;
+  Pose pose;
+  std::optional<std::array<double, 2>> intensityLimits;
+  std::array<std::optional<std::array<double, 2>>, 3> colorLimits;
+  std::optional<std::array<double, 2>> rowBounds, columnBounds;
+  // The scan's own frame: x, y, z (or range, elevation) minimum and maximum.
+  std::optional<std::array<std::array<double, 2>, 3>> coordinateBounds;
+  std::vector<std::string> unread;  // its children apo does not read
+};
+
+std::optional<std::array<double, 2>> rangeOf(const Node& parent, const char* minimum, const char* maximum) {
+  const auto low = optionalNumber(parent, minimum), high = optionalNumber(parent, maximum);
+  if (!low || !high) return std::nullopt;
+  return std::array<double, 2>{*low, *high};
+}
+
+std::array<std::array<double, 3>, 3> rotationMatrix(const std::array<double, 4>& q) {
+  const auto [w, x, y, z] = q;
+  return {{{1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)},
+           {2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)},
+           {2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)}}};
+}
+
+Pose parsePose(const Node& node, std::vector<std::string>& notes) {
+  Pose pose;
+  if (const Node rotation = node.child("rotation")) {
+    std::array<double, 4> q{};
+    const char* names[] = {"w", "x", "y", "z"};
+    for (int i = 0; i < 4; ++i) q[i] = optionalNumber(rotation, names[i]).value_or(0.0);
+    const double norm = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+    if (!std::isfinite(norm) || norm < 1e-9)
+      fail("XML element {}: the rotation quaternion ({}, {}, {}, {}) has no direction", rotation.path, q[0], q[1], q[2],
+           q[3]);
+    // Writers round the quaternion's digits; only a clearly off one is named.
+    if (std::abs(norm - 1.0) > 1e-6)
+      notes.push_back(fmt::format("{}: rotation quaternion of length {} normalised", rotation.path, norm));
+    for (double& component : q) component /= norm;
+    pose.rotationWxyz = q;
+    pose.matrix = rotationMatrix(q);
+  }
+  if (const Node translation = node.child("translation")) {
+    const char* names[] = {"x", "y", "z"};
+    for (int i = 0; i < 3; ++i) {
+      pose.translation[i] = optionalNumber(translation, names[i]).value_or(0.0);
+      if (!std::isfinite(pose.translation[i]))
+        fail("XML element {}/{}: translation {} is not finite", translation.path, names[i], pose.translation[i]);
+    }
+  }
+  pose.identity = pose.rotationWxyz == std::array<double, 4>{1, 0, 0, 0} && pose.translation == std::array<double, 3>{};
+  return pose;
+}
+
+std::uint64_t countAttribute(const Node& node, const char* name) {
+  const pugi::xml_attribute attribute = node.xml.attribute(name);
+  if (!attribute) fail("XML element {}: no {} attribute", node.path, name);
+  const std::int64_t value = integerAttribute(node, name, 0);
+  if (value < 0) fail("XML element {}: {} {} is negative", node.path, name, value);
+  return static_cast<std::uint64_t>(value);
+}
+
+constexpr const char* kReadScanChildren[] = {"guid",         "name",           "description",     "points",
+                                             "pose",         "cartesianBounds", "sphericalBounds", "intensityLimits",
+                                             "colorLimits", "indexBounds"};
+
+ScanHeader parseScanHeader(const Node& node, std::vector<std::string>& notes) {
+  ScanHeader scan;
+  scan.path = node.path;
+  scan.name = stringOf(node.child("name"));
+  if (scan.name.empty()) scan.name = stringOf(node.child("guid"));
+  if (scan.name.empty()) scan.name = node.path;
+  const Node points = node.child("points");
+  if (!points) fail("XML element {}: no points", node.path);
+  if (points.type() != "CompressedVector")
+    fail("XML element {}: type {}, not CompressedVector", points.path, parse::quoted(points.type()));
+  scan.fileOffset = countAttribute(points, "fileOffset");
+  scan.recordCount = countAttribute(points, "recordCount");
+  const Node prototype = points.child("prototype");
+  if (!prototype) fail("XML element {}: no prototype", points.path);
+  collectFields(prototype, "", 0, scan.fields);
+  checkCodecs(points);
+  if (const Node pose = node.child("pose")) {
+    scan.hasPose = true;
+    scan.pose = parsePose(pose, notes);
+  }
+  if (const Node limits = node.child("intensityLimits"))
+    scan.intensityLimits = rangeOf(limits, "intensityMinimum", "intensityMaximum");
+  if (const Node limits = node.child("colorLimits")) {
+    scan.colorLimits[0] = rangeOf(limits, "colorRedMinimum", "colorRedMaximum");
+    scan.colorLimits[1] = rangeOf(limits, "colorGreenMinimum", "colorGreenMaximum");
+    scan.colorLimits[2] = rangeOf(limits, "colorBlueMinimum", "colorBlueMaximum");
+  }
+  if (const Node bounds = node.child("indexBounds")) {
+    scan.rowBounds = rangeOf(bounds, "rowMinimum", "rowMaximum");
+    scan.columnBounds = rangeOf(bounds, "columnMinimum", "columnMaximum");
+  }
+  if (const Node bounds = node.child("cartesianBounds")) {
+    const auto x = rangeOf(bounds, "xMinimum", "xMaximum"), y = rangeOf(bounds, "yMinimum", "yMaximum"),
+               z = rangeOf(bounds, "zMinimum", "zMaximum");
+    if (x && y && z) scan.coordinateBounds = std::array<std::array<double, 2>, 3>{*x, *y, *z};
+  }
+  for (const Node& child : childElements(node)) {
+    const std::string_view name = child.xml.name();
+    if (std::find(std::begin(kReadScanChildren), std::end(kReadScanChildren), name) == std::end(kReadScanChildren))
+      scan.unread.emplace_back(name);
+  }
+  return scan;
+}
+
+// ---------------------------------------------------------------- binary section
+
+// Leaf i's bytes, all data packets' bytestream i end to end, with 16 zero
+// bytes after them so that the decoder may load whole words at the end.
+using Streams = std::vector<std::string>;
+constexpr std::size_t kStreamPadding = 16;
+
+// Bytes a field's stream needs for `records` values.
+std::uint64_t bytesNeeded(const Field& field, std::uint64_t records) {
+  // records * bits / 8 without overflow: records < 2^64 / 64 once checked.
+  return (records / 8) * field.bits + ((records % 8) * field.bits + 7) / 8;
+}
+
+// The record count against what the section can hold, before anything is
+// allocated: a claim of 10^11 records in a small file stops here.
+void checkRecordCount(const ScanHeader& scan, std::uint64_t sectionLength, std::uint64_t sectionPhysical) {
+  int bitsPerRecord = 0;
+  for (const Field& field : scan.fields) bitsPerRecord += field.bits;
+  // Records of constant fields take no bits; they still become points, so
+  // they are held to one per bit of the section.
+  const std::uint64_t limit = sectionLength * 8 / std::max(bitsPerRecord, 1);
+  if (scan.recordCount > limit)
+    fail("byte {}: {}/points claims {} records of {} bits, but its section of {} bytes holds at most {}",
+         sectionPhysical, scan.path, scan.recordCount, bitsPerRecord, sectionLength, limit);
+}
+
+Streams readStreams(const PagedFile& file, const ScanHeader& scan) {
+  Streams streams(scan.fields.size());
+  // Writers give a scan without records no section (fileOffset 0).
+  if (scan.recordCount == 0 && scan.fileOffset == 0) return streams;
+  const std::string what = scan.path + "/points' compressed vector section";
+  const std::uint64_t sectionStart = file.logicalFromPhysical(scan.fileOffset, what);
+  std::string header;
+  file.append(sectionStart, e57::kSectionHeaderSize, header, what + " header");
+  const auto id = static_cast<std::uint8_t>(header[0]);
+  if (id != e57::kCompressedVectorSectionId)
+    fail("byte {}: {} has section id {}, not {} (a compressed vector section)", scan.fileOffset, what, id,
+         e57::kCompressedVectorSectionId);
+  const auto sectionLength = readLittle<std::uint64_t>(header, 8);
+  const auto dataPhysical = readLittle<std::uint64_t>(header, 16);
+  if (sectionLength < e57::kSectionHeaderSize || sectionLength > file.logicalSize() - sectionStart)
+    fail("byte {}: {}: section length {} is outside [{}, {}] (the file's end)", scan.fileOffset + 8, what,
+         sectionLength, e57::kSectionHeaderSize, file.logicalSize() - sectionStart);
+  checkRecordCount(scan, sectionLength, scan.fileOffset);
+  const std::uint64_t sectionEnd = sectionStart + sectionLength;
+
+  std::vector<std::uint64_t> needed(scan.fields.size());
+  for (std::size_t i = 0; i < scan.fields.size(); ++i) {
+    needed[i] = bytesNeeded(scan.fields[i], scan.recordCount);
+    // Within the section's length (checkRecordCount): one allocation per stream.
+    streams[i].reserve(needed[i] + kStreamPadding);
+  }
+  const auto complete = [&] {
+    for (std::size_t i = 0; i < streams.size(); ++i)
+      if (streams[i].size() < needed[i]) return false;
+    return true;
+  };
+  std::uint64_t at = scan.recordCount == 0 ? sectionEnd : file.logicalFromPhysical(dataPhysical, what + "'s data");
+  if (at < sectionStart + e57::kSectionHeaderSize || at > sectionEnd)
+    fail("byte {}: {}: its first data packet at byte {} lies outside the section", scan.fileOffset + 16, what,
+         dataPhysical);
+  std::vector<std::uint16_t> lengths(scan.fields.size());
+  while (!complete()) {
+    const std::uint64_t packetPhysical = e57::physicalFromLogical(at);
+    if (sectionEnd - at < e57::kPacketHeaderSize)
+      fail("byte {}: {} ends before its {} records: its streams hold fewer bytes than they need", packetPhysical, what,
+           scan.recordCount);
+    char head[e57::kDataPacketHeaderSize] = {};
+    file.read(at, e57::kPacketHeaderSize, head, "packet header");
+    const auto type = static_cast<std::uint8_t>(head[0]);
+    const std::uint64_t length = readLittle<std::uint16_t>(std::string_view(head, 4), 2) + std::uint64_t{1};
+    if (length < e57::kPacketHeaderSize || length > sectionEnd - at)
+      fail("byte {}: packet of {} bytes is shorter than its header or runs past the end of {}", packetPhysical, length,
+           what);
+    if (type == e57::kDataPacket) {
+      const std::uint64_t streamTable = e57::kDataPacketHeaderSize + 2 * scan.fields.size();
+      if (length < streamTable)
+        fail("byte {}: data packet of {} bytes is shorter than its own header", packetPhysical, length);
+      file.read(at, e57::kDataPacketHeaderSize, head, "data packet header");
+      const auto count = readLittle<std::uint16_t>(std::string_view(head, 6), 4);
+      if (count != scan.fields.size())
+        fail("byte {}: data packet has {} bytestreams, but {}'s prototype has {} fields", packetPhysical, count,
+             scan.path, scan.fields.size());
+      std::string table;
+      file.append(at + e57::kDataPacketHeaderSize, 2 * scan.fields.size(), table, "bytestream lengths");
+      std::uint64_t total = 0;
+      for (std::size_t i = 0; i < lengths.size(); ++i) total += lengths[i] = readLittle<std::uint16_t>(table, 2 * i);
+      if (streamTable + total > length)
+        fail("byte {}: data packet's bytestreams ({} bytes) overflow its length {}", packetPhysical, total, length);
+      std::uint64_t streamAt = at + streamTable;
+      for (std::size_t i = 0; i < lengths.size(); ++i) {
+        file.append(streamAt, lengths[i], streams[i], "bytestream");
+        streamAt += lengths[i];
+      }
+    } else if (type != e57::kIndexPacket && type != e57::kEmptyPacket) {
+      fail("byte {}: packet type {} in {}: E57 packets are index (0), data (1) or empty (2)", packetPhysical, type,
+           what);
+    }
+    at += length;
+  }
+  for (std::string& stream : streams) stream.append(kStreamPadding, '\0');
+  return streams;
+}
+
+// ---------------------------------------------------------------- decoding
+
+// Decodes one field's values, a batch at a time, as doubles (integers of up
+// to 53 bits exactly: row, column, colour, state). The codec is chosen per
+// batch, not per value, and the loops load whole words.
+class FieldDecoder {
+ public:
+  FieldDecoder(const Field& field, const std::string& stream) : field_(field), data_(stream.data()) {}
+
+  void decode(std::size_t count, double* out) {
+    switch (field_.codec) {
+      case Codec::Float32: return decodeFloats<float>(count, out);
+      case Codec::Float64: return decodeFloats<double>(count, out);
+      case Codec::Integer:
+      case Codec::ScaledInteger: return decodeIntegers(count, out);
+    }
+  }
+
+ private:
+  template <class T>
+  void decodeFloats(std::size_t count, double* out) {
+    const char* at = data_ + bit_ / 8;
+    for (std::size_t i = 0; i < count; ++i) {
+      T value;
+      std::memcpy(&value, at + i * sizeof(T), sizeof(T));
+      out[i] = static_cast<double>(value);
+    }
+    bit_ += count * sizeof(T) * 8;
+  }
+
+  void decodeIntegers(std::size_t count, double* out) {
+    const int bits = field_.bits;
+    const auto minimum = static_cast<std::uint64_t>(field_.minimum);
+    const double scale = field_.scale, offset = field_.offset;
+    const auto value = [&](std::uint64_t raw) {
+      return static_cast<double>(static_cast<std::int64_t>(minimum + raw)) * scale + offset;
+    };
+    if (bits == 0) {
+      std::fill(out, out + count, value(0));
+      return;
+    }
+    const std::uint64_t mask = bits == 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << bits) - 1;
+    std::uint64_t bit = bit_;
+    if (bits <= 56) {
+      // One unaligned load holds the value: it starts within the word's first byte.
+      for (std::size_t i = 0; i < count; ++i, bit += bits) {
+        std::uint64_t word;
+        std::memcpy(&word, data_ + bit / 8, 8);
+        out[i] = value((word >> (bit % 8)) & mask);
+      }
+    } else {
+      for (std::size_t i = 0; i < count; ++i, bit += bits) {
+        std::uint64_t low, high;
+        std::memcpy(&low, data_ + bit / 8, 8);
+        std::memcpy(&high, data_ + bit / 8 + 8, 8);
+        const int shift = static_cast<int>(bit % 8);
+        const std::uint64_t raw = shift == 0 ? low : (low >> shift) | (high << (64 - shift));
+        out[i] = value(raw & mask);
+      }
+    }
+    bit_ = bit;
+  }
+
+  const Field& field_;
+  const char* data_;
+  std::uint64_t bit_ = 0;
+};
+
+// ---------------------------------------------------------------- assembly
+
+// Where each role's field is in the prototype (-1: absent).
+struct FieldIndex {
+  std::array<int, static_cast<std::size_t>(Role::Count)> of{};
+  FieldIndex() { of.fill(-1); }
+  int operator[](Role role) const { return of[static_cast<std::size_t>(role)]; }
+  bool has(Role role) const { return (*this)[role] >= 0; }
+};
+
+FieldIndex indexFields(const ScanHeader& scan) {
+  FieldIndex index;
+  for (std::size_t i = 0; i < scan.fields.size(); ++i) {
+    const Role role = scan.fields[i].role;
+    if (role == Role::Other) continue;
+    if (index.has(role)) fail("XML element {}: a second {} field", scan.fields[i].path, scan.fields[i].name);
+    index.of[static_cast<std::size_t>(role)] = static_cast<int>(i);
+  }
+  return index;
+}
+
+// A linear map of a scan's raw values onto apo's range ([0, 1] intensities,
+// 0-255 colours), from the limits the file declares.
+struct LinearMap {
+  double minimum = 0.0, factor = 1.0;
+  double operator()(double value) const { return (value - minimum) * factor; }
+};
+
+// The limits a scan declares for a field: its own element (intensityLimits,
+// colorLimits) first, else the field's declared range.
+std::optional<std::array<double, 2>> limitsOf(const std::optional<std::array<double, 2>>& declared, const Field& field) {
+  if (declared) return declared;
+  return field.declared;
+}
+
+LinearMap mapOnto(const std::optional<std::array<double, 2>>& limits, double top) {
+  if (!limits || !std::isfinite((*limits)[0]) || !std::isfinite((*limits)[1])) return {0.0, 1.0};
+  const double span = (*limits)[1] - (*limits)[0];
+  return {(*limits)[0], span > 0.0 ? top / span : 0.0};
+}
+
+std::string describeLimits(const std::optional<std::array<double, 2>>& limits) {
+  if (!limits) return "none declared: raw values kept";
+  return fmt::format("[{}, {}]", (*limits)[0], (*limits)[1]);
+}
+
+// Per-point attributes that some scans have and others may not: the points
+// of scans without one get zeros (with a note) once any scan has it.
+template <class T>
+void catchUp(std::vector<T>& values, std::size_t size) {
+  if (values.size() < size) values.resize(size, T{});
+}
+
+struct Assembly {
+  Scan scan;
+  PositionCollector positions;
+  std::vector<std::array<double, 3>> stationTranslations;
+  // Scans lacking an attribute some other scan has, by attribute.
+  std::vector<std::string> withoutIntensity, withoutColor, withoutGrid, withoutReturns, withoutNormals;
+  bool anyNormals = false;
+};
+
+struct ScanTally {
+  std::uint64_t read = 0, directionOnly = 0, invalid = 0, outsideBounds = 0;
+  std::uint32_t rowMaximum = 0, columnMaximum = 0;
+};
+
+constexpr std::size_t kBatch = 4096;
+
+void decodeScan(const ScanHeader& header, const Streams& streams, std::uint16_t station, Assembly& out) {
+  const FieldIndex index = indexFields(header);
+  const bool cartesian = index.has(Role::X) && index.has(Role::Y) && index.has(Role::Z);
+  const bool spherical = index.has(Role::Range) && index.has(Role::Azimuth) && index.has(Role::Elevation);
+  if (!cartesian && !spherical)
+    fail("XML element {}/points/prototype: neither cartesianX, Y and Z nor sphericalRange, Azimuth and Elevation",
+         header.path);
+  const Role invalidRole = cartesian ? Role::CartesianInvalid : Role::SphericalInvalid;
+  const bool hasIntensity = index.has(Role::Intensity);
+  const bool hasColor = index.has(Role::Red) && index.has(Role::Green) && index.has(Role::Blue);
+  const bool hasGrid = index.has(Role::Row) && index.has(Role::Column);
+  const bool hasReturns = index.has(Role::ReturnIndex) && index.has(Role::ReturnCount);
+  const bool hasNormals = index.has(Role::NormalX) && index.has(Role::NormalY) && index.has(Role::NormalZ);
+  for (const Role role : {Role::Row, Role::Column})
+    if (index.has(role)) {
+      const Field& field = header.fields[index[role]];
+      if (field.codec != Codec::Integer || field.minimum < 0 || field.maximum > std::numeric_limits<std::uint32_t>::max())
+        fail("XML element {}: row and column indices are Integers in [0, 2^32)", field.path);
+    }
+
+  // Which streams to decode: the others were only checked for length.
+  std::vector<Role> used = {cartesian ? Role::X : Role::Range, cartesian ? Role::Y : Role::Azimuth,
+                            cartesian ? Role::Z : Role::Elevation};
+  if (index.has(invalidRole)) used.push_back(invalidRole);
+  if (hasIntensity) used.push_back(Role::Intensity);
+  if (hasColor) used.insert(used.end(), {Role::Red, Role::Green, Role::Blue});
+  if (hasGrid) used.insert(used.end(), {Role::Row, Role::Column});
+  if (hasReturns) used.insert(used.end(), {Role::ReturnIndex, Role::ReturnCount});
+  if (hasNormals) used.insert(used.end(), {Role::NormalX, Role::NormalY, Role::NormalZ});
+  std::vector<FieldDecoder> decoders;
+  std::array<std::vector<double>, static_cast<std::size_t>(Role::Count)> batch;
+  for (const Role role : used) {
+    decoders.emplace_back(header.fields[index[role]], streams[index[role]]);
+    batch[static_cast<std::size_t>(role)].resize(kBatch);
+  }
+  const auto values = [&](Role role) { return batch[static_cast<std::size_t>(role)].data(); };
+
+  // The maps onto apo's ranges, and the notes saying which limits were used.
+  const LinearMap intensityMap =
+      hasIntensity ? mapOnto(limitsOf(header.intensityLimits, header.fields[index[Role::Intensity]]), 1.0) : LinearMap{};
+  std::array<LinearMap, 3> colorMaps;
+  const Role colorRoles[] = {Role::Red, Role::Green, Role::Blue};
+  if (hasColor)
+    for (int c = 0; c < 3; ++c) colorMaps[c] = mapOnto(limitsOf(header.colorLimits[c], header.fields[index[colorRoles[c]]]), 255.0);
+  std::vector<std::string>& notes = out.scan.readNotes;
+  if (hasIntensity)
+    notes.push_back(fmt::format("{} ({}): intensities mapped to [0, 1] from their limits {}", header.path, header.name,
+                                describeLimits(limitsOf(header.intensityLimits, header.fields[index[Role::Intensity]]))));
+  if (hasColor)
+    notes.push_back(fmt::format("{} ({}): colours mapped to 0-255 from their limits {}", header.path, header.name,
+                                describeLimits(limitsOf(header.colorLimits[0], header.fields[index[Role::Red]]))));
+
+  PointSet& points = out.scan.points;
+  const std::size_t before = out.positions.size();
+  const std::size_t after = before + header.recordCount;
+  if (hasIntensity) {
+    catchUp(points.intensities, before);
+    points.intensities.reserve(after);
+  }
+  if (hasColor) {
+    catchUp(points.colors, before);
+    points.colors.reserve(after);
+  }
+  if (hasGrid) {
+    catchUp(points.rows, before);
+    catchUp(points.columns, before);
+  }
+  if (hasReturns) {
+    catchUp(points.returnNumbers, before);
+    catchUp(points.returnCounts, before);
+  }
+  if (hasNormals) points.normals.reserve(after);
+  out.positions.reserve(after);
+  points.stations.reserve(after);
+
+  const Pose& pose = header.pose;
+  const auto& r = pose.matrix;
+  ScanTally tally;
+  for (std::uint64_t start = 0; start < header.recordCount; start += kBatch) {
+    const auto count = static_cast<std::size_t>(std::min<std::uint64_t>(kBatch, header.recordCount - start));
+    for (std::size_t d = 0; d < decoders.size(); ++d) decoders[d].decode(count, values(used[d]));
+    const double* a = values(used[0]);
+    const double* b = values(used[1]);
+    const double* c = values(used[2]);
+    const double* state = index.has(invalidRole) ? values(invalidRole) : nullptr;
+    for (std::size_t i = 0; i < count; ++i) {
+      if (state && state[i] != 0.0) {
+        ++(state[i] == 1.0 ? tally.directionOnly : tally.invalid);
+        continue;
+      }
+      double x = a[i], y = b[i], z = c[i];
+      if (!cartesian) {
+        const double range = a[i], azimuth = b[i], elevation = c[i];
+        x = range * std::cos(elevation) * std::cos(azimuth);
+        y = range * std::cos(elevation) * std::sin(azimuth);
+        z = range * std::sin(elevation);
+      }
+      // cartesianBounds are in the scan's own frame: checked before the pose.
+      if (header.coordinateBounds) {
+        const auto& box = *header.coordinateBounds;
+        const double v[3] = {x, y, z};
+        bool outside = false;
+        for (int axis = 0; axis < 3; ++axis)
+          outside |= !(v[axis] >= box[axis][0] - 1e-6 * (1 + std::abs(box[axis][0])) &&
+                       v[axis] <= box[axis][1] + 1e-6 * (1 + std::abs(box[axis][1])));
+        tally.outsideBounds += outside;
+      }
+      if (!pose.identity) {
+        const double px = r[0][0] * x + r[0][1] * y + r[0][2] * z + pose.translation[0];
+        const double py = r[1][0] * x + r[1][1] * y + r[1][2] * z + pose.translation[1];
+        const double pz = r[2][0] * x + r[2][1] * y + r[2][2] * z + pose.translation[2];
+        x = px, y = py, z = pz;
+      }
+      out.positions.push(x, y, z);
+      points.stations.push_back(station);
+      if (hasIntensity) points.intensities.push_back(static_cast<float>(intensityMap(values(Role::Intensity)[i])));
+      if (hasColor) {
+        std::uint8_t rgb[3];
+        for (int k = 0; k < 3; ++k)
+          rgb[k] = static_cast<std::uint8_t>(std::clamp(std::round(colorMaps[k](values(colorRoles[k])[i])), 0.0, 255.0));
+        points.colors.push_back({rgb[0], rgb[1], rgb[2]});
+      }
+      if (hasGrid) {
+        const auto row = static_cast<std::uint32_t>(values(Role::Row)[i]);
+        const auto column = static_cast<std::uint32_t>(values(Role::Column)[i]);
+        points.rows.push_back(row);
+        points.columns.push_back(column);
+        tally.rowMaximum = std::max(tally.rowMaximum, row);
+        tally.columnMaximum = std::max(tally.columnMaximum, column);
+      }
+      if (hasReturns) {
+        // E57 counts returns from 0, LAS (and PointSet) from 1.
+        points.returnNumbers.push_back(
+            static_cast<std::uint8_t>(std::clamp(values(Role::ReturnIndex)[i] + 1.0, 0.0, 255.0)));
+        points.returnCounts.push_back(static_cast<std::uint8_t>(std::clamp(values(Role::ReturnCount)[i], 0.0, 255.0)));
+      }
+      if (hasNormals) {
+        const double nx = values(Role::NormalX)[i], ny = values(Role::NormalY)[i], nz = values(Role::NormalZ)[i];
+        points.normals.emplace_back(static_cast<float>(r[0][0] * nx + r[0][1] * ny + r[0][2] * nz),
+                                    static_cast<float>(r[1][0] * nx + r[1][1] * ny + r[1][2] * nz),
+                                    static_cast<float>(r[2][0] * nx + r[2][1] * ny + r[2][2] * nz));
+      }
+      ++tally.read;
+    }
+  }
+
+  // The scan's station.
+  ScanStation stationEntry;
+  stationEntry.name = header.name;
+  stationEntry.rotationWxyz = pose.rotationWxyz;
+  stationEntry.hasPose = header.hasPose;
+  stationEntry.pointCount = tally.read;
+  if (hasGrid && tally.read > 0) {
+    stationEntry.rowCount = tally.rowMaximum + 1;
+    stationEntry.columnCount = tally.columnMaximum + 1;
+  } else if (header.rowBounds && header.columnBounds && (*header.rowBounds)[1] >= 0 && (*header.columnBounds)[1] >= 0 &&
+             (*header.rowBounds)[1] < 4294967295.0 && (*header.columnBounds)[1] < 4294967295.0) {
+    stationEntry.rowCount = static_cast<std::uint32_t>((*header.rowBounds)[1]) + 1;
+    stationEntry.columnCount = static_cast<std::uint32_t>((*header.columnBounds)[1]) + 1;
+  }
+  out.scan.stations.push_back(stationEntry);
+  out.stationTranslations.push_back(pose.translation);
+
+  const std::string label = fmt::format("{} ({})", header.path, header.name);
+  if (!hasIntensity) out.withoutIntensity.push_back(label);
+  if (!hasColor) out.withoutColor.push_back(label);
+  if (!hasGrid) out.withoutGrid.push_back(label);
+  if (!hasReturns) out.withoutReturns.push_back(label);
+  if (!hasNormals) out.withoutNormals.push_back(label);
+  out.anyNormals |= hasNormals;
+  if (tally.directionOnly + tally.invalid > 0)
+    notes.push_back(fmt::format("{}: {} of {} records skipped as invalid ({} with a direction only, {} invalid)", label,
+                                tally.directionOnly + tally.invalid, header.recordCount, tally.directionOnly,
+                                tally.invalid));
+  if (tally.outsideBounds > 0)
+    notes.push_back(fmt::format("{}: {} points lie outside its declared cartesianBounds", label, tally.outsideBounds));
+  std::vector<std::string> skipped;
+  for (const Field& field : header.fields)
+    if (std::find_if(used.begin(), used.end(), [&](Role role) { return role == field.role; }) == used.end())
+      skipped.push_back(field.name);
+  if (!skipped.empty())
+    notes.push_back(fmt::format("{}: fields not kept: {}", label, fmt::join(skipped, ", ")));
+  if (!header.unread.empty())
+    notes.push_back(fmt::format("{}: elements not read: {}", label, fmt::join(header.unread, ", ")));
+}
+
+// Attributes that only some scans have: zeros for the others' points (or,
+// for normals, which have no neutral value, none at all), said in a note.
+void fillMissingAttributes(Assembly& out) {
+  PointSet& points = out.scan.points;
+  const std::size_t size = out.positions.size();
+  const auto fill = [&](auto& values, const std::vector<std::string>& without, const char* what) {
+    if (values.empty() || without.empty()) return;
+    catchUp(values, size);
+    out.scan.readNotes.push_back(fmt::format("{} {}: 0 for the points of {}", what,
+                                             without.size() == 1 ? "missing in one scan" : "missing in some scans",
+                                             fmt::join(without, ", ")));
+  };
+  fill(points.intensities, out.withoutIntensity, "intensity");
+  fill(points.colors, out.withoutColor, "colour");
+  fill(points.rows, out.withoutGrid, "row index");
+  catchUp(points.columns, points.rows.size());
+  fill(points.returnNumbers, out.withoutReturns, "return number");
+  catchUp(points.returnCounts, points.returnNumbers.size());
+  if (out.anyNormals && !out.withoutNormals.empty()) {
+    points.normals.clear();
+    out.scan.readNotes.push_back(
+        fmt::format("normals dropped: {} have none", fmt::join(out.withoutNormals, ", ")));
+  }
+}
+
+// ---------------------------------------------------------------- root
+
+constexpr const char* kReadRootChildren[] = {"formatName", "guid",           "versionMajor", "versionMinor",
+                                             "e57LibraryVersion", "creationDateTime", "coordinateMetadata",
+                                             "data3D",     "images2D"};
+
+void noteUnreadRoot(const Node& root, std::vector<std::string>& notes) {
+  const std::string metadata = stringOf(root.child("coordinateMetadata"));
+  if (!metadata.empty())
+    notes.push_back(fmt::format("coordinateMetadata (the coordinate reference system) not interpreted: {}",
+                                parse::quoted(metadata)));
+  if (const Node images = root.child("images2D")) {
+    const std::vector<Node> children = childElements(images);
+    std::set<std::string> kinds;
+    for (const Node& image : children)
+      for (const Node& part : childElements(image)) {
+        const std::string name = part.xml.name();
+        if (name.size() > 14 && name.ends_with("Representation")) kinds.insert(name.substr(0, name.size() - 14));
+      }
+    if (!children.empty())
+      notes.push_back(fmt::format("{} images2D ({}) not read", children.size(), fmt::join(kinds, ", ")));
+  }
+  std::vector<std::string> unread;
+  for (const Node& child : childElements(root)) {
+    const std::string_view name = child.xml.name();
+    if (std::find(std::begin(kReadRootChildren), std::end(kReadRootChildren), name) == std::end(kReadRootChildren))
+      unread.emplace_back(name);
+  }
+  if (!unread.empty()) notes.push_back(fmt::format("elements not read: {}", fmt::join(unread, ", ")));
+}
+
+void parseXml(const PagedFile& file, const FileHeader& header, std::string& text, pugi::xml_document& document) {
+  const std::uint64_t start = file.logicalFromPhysical(header.xmlPhysicalOffset, "the XML section (header byte 24)");
+  file.append(start, header.xmlLength, text, "the XML section");
+  const pugi::xml_parse_result result = document.load_buffer_inplace(text.data(), text.size(), pugi::parse_default,
+                                                                     pugi::encoding_utf8);
+  if (!result)
+    fail("byte {}: the XML section is not well-formed: {} (its byte {})",
+         e57::physicalFromLogical(start + static_cast<std::uint64_t>(std::max<std::ptrdiff_t>(result.offset, 0))),
+         result.description(), result.offset);
+}
+
+Scan readScans(std::string_view bytes) {
+  const FileHeader header = parseFileHeader(bytes);
+  e57::checkPages(bytes);
+  const PagedFile file(bytes);
+  std::string xmlText;
+  pugi::xml_document document;
+  parseXml(file, header, xmlText, document);
+  const Node root{document.child("e57Root"), ""};
+  if (!root) fail("XML element /e57Root: missing: the XML section is not an E57 description");
+  const Node data3D = root.child("data3D");
+  if (!data3D) fail("XML element /data3D: missing: the file holds no scans");
+  const std::vector<Node> scans = childElements(data3D);
+  if (scans.size() > std::numeric_limits<std::uint16_t>::max())
+    fail("XML element /data3D: {} scans: apo reads at most {}", scans.size(), std::numeric_limits<std::uint16_t>::max());
+
+  Assembly out;
+  std::vector<std::string>& notes = out.scan.readNotes;
+  std::vector<std::uint64_t> records;
+  for (std::size_t s = 0; s < scans.size(); ++s) {
+    const ScanHeader scanHeader = parseScanHeader(scans[s], notes);
+    const Streams streams = readStreams(file, scanHeader);
+    decodeScan(scanHeader, streams, static_cast<std::uint16_t>(s), out);
+    records.push_back(scanHeader.recordCount);
+  }
+  if (out.positions.size() == 0)
+    fail("no points: the file's {} scans hold no valid records ({} in all)", scans.size(),
+         std::accumulate(records.begin(), records.end(), std::uint64_t{0}));
+  fillMissingAttributes(out);
+  noteUnreadRoot(root, notes);
+  notes.insert(notes.begin(), fmt::format("E57 {}.{}: {} scans ({} records)", header.major, header.minor, scans.size(),
+                                          fmt::join(records, ", ")));
+  out.positions.finishInto(out.scan);
+  // Stations in the same local frame as the points.
+  for (std::size_t s = 0; s < out.scan.stations.size(); ++s)
+    for (int axis = 0; axis < 3; ++axis)
+      out.scan.stations[s].position[axis] =
+          static_cast<float>(out.stationTranslations[s][axis] - out.scan.origin[axis]);
+  return std::move(out.scan);
+}
+
+}  // namespace
+
+Scan readE57(std::string_view bytes) {
+  try {
+    return readScans(bytes);
+  } catch (const parse::ParseFailure&) {
+    throw;
+  } catch (const std::bad_alloc&) {
+    throw;
+  } catch (const std::exception& error) {
+    // pugixml reports by return value; anything else a library throws is
+    // still a refusal of this file, not a crash.
+    fail("the E57 file could not be read: {}", error.what());
+  }
+}
+
+}  // namespace apo::readers
