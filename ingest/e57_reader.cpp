@@ -10,6 +10,9 @@
 // The layers, outside in: pages and their CRCs (e57_pages.h), the file
 // header and the XML section (parsed with pugixml), then each scan's
 // compressed vector section, its packets and bit streams (e57_format.h).
+// The records are decoded twice, a packet at a time: once for the local
+// frame (LocalFrame), once into the Scan's floats; holding every position
+// in double instead would cost more than decoding them again.
 // Every offset and count the file claims is checked against its size before
 // anything is allocated for it; errors name the byte offset or the XML
 // element's path (/data3D/0/points/prototype/cartesianX).
@@ -30,7 +33,6 @@
 #include <cstdint>
 #include <cstring>
 #include <limits>
-#include <numeric>
 #include <optional>
 #include <set>
 #include <string>
@@ -391,174 +393,219 @@ ScanHeader parseScanHeader(const Node& node, std::vector<std::string>& notes) {
 
 // ---------------------------------------------------------------- binary section
 
-// Leaf i's bytes, all data packets' bytestream i end to end, with 16 zero
-// bytes after them so that the decoder may load whole words at the end.
-using Streams = std::vector<std::string>;
-constexpr std::size_t kStreamPadding = 16;
-
-// Bytes a field's stream needs for `records` values.
-std::uint64_t bytesNeeded(const Field& field, std::uint64_t records) {
-  // records * bits / 8 without overflow: records < 2^64 / 64 once checked.
-  return (records / 8) * field.bits + ((records % 8) * field.bits + 7) / 8;
-}
+// A scan's compressed vector section, checked: where its packets run.
+struct Section {
+  std::uint64_t firstPacket = 0, end = 0;  // logical
+};
 
 // The record count against what the section can hold, before anything is
 // allocated: a claim of 10^11 records in a small file stops here.
-void checkRecordCount(const ScanHeader& scan, std::uint64_t sectionLength, std::uint64_t sectionPhysical) {
-  int bitsPerRecord = 0;
+void checkRecordCount(const ScanHeader& scan, std::uint64_t sectionLength) {
+  std::uint64_t bitsPerRecord = 0;
   for (const Field& field : scan.fields) bitsPerRecord += field.bits;
   // Records of constant fields take no bits; they still become points, so
   // they are held to one per bit of the section.
-  const std::uint64_t limit = sectionLength * 8 / std::max(bitsPerRecord, 1);
+  const std::uint64_t limit = sectionLength * 8 / std::max<std::uint64_t>(bitsPerRecord, 1);
   if (scan.recordCount > limit)
     fail("byte {}: {}/points claims {} records of {} bits, but its section of {} bytes holds at most {}",
-         sectionPhysical, scan.path, scan.recordCount, bitsPerRecord, sectionLength, limit);
+         scan.fileOffset, scan.path, scan.recordCount, bitsPerRecord, sectionLength, limit);
 }
 
-Streams readStreams(const PagedFile& file, const ScanHeader& scan) {
-  Streams streams(scan.fields.size());
+std::string sectionName(const ScanHeader& scan) { return scan.path + "/points' compressed vector section"; }
+
+Section locateSection(const PagedFile& file, const ScanHeader& scan) {
   // Writers give a scan without records no section (fileOffset 0).
-  if (scan.recordCount == 0 && scan.fileOffset == 0) return streams;
-  const std::string what = scan.path + "/points' compressed vector section";
-  const std::uint64_t sectionStart = file.logicalFromPhysical(scan.fileOffset, what);
+  if (scan.recordCount == 0 && scan.fileOffset == 0) return {};
+  const std::string what = sectionName(scan);
+  const std::uint64_t start = file.logicalFromPhysical(scan.fileOffset, what);
   std::string header;
-  file.append(sectionStart, e57::kSectionHeaderSize, header, what + " header");
+  file.append(start, e57::kSectionHeaderSize, header, what + " header");
   const auto id = static_cast<std::uint8_t>(header[0]);
   if (id != e57::kCompressedVectorSectionId)
     fail("byte {}: {} has section id {}, not {} (a compressed vector section)", scan.fileOffset, what, id,
          e57::kCompressedVectorSectionId);
-  const auto sectionLength = readLittle<std::uint64_t>(header, 8);
+  const auto length = readLittle<std::uint64_t>(header, 8);
   const auto dataPhysical = readLittle<std::uint64_t>(header, 16);
-  if (sectionLength < e57::kSectionHeaderSize || sectionLength > file.logicalSize() - sectionStart)
-    fail("byte {}: {}: section length {} is outside [{}, {}] (the file's end)", scan.fileOffset + 8, what,
-         sectionLength, e57::kSectionHeaderSize, file.logicalSize() - sectionStart);
-  checkRecordCount(scan, sectionLength, scan.fileOffset);
-  const std::uint64_t sectionEnd = sectionStart + sectionLength;
-
-  std::vector<std::uint64_t> needed(scan.fields.size());
-  for (std::size_t i = 0; i < scan.fields.size(); ++i) {
-    needed[i] = bytesNeeded(scan.fields[i], scan.recordCount);
-    // Within the section's length (checkRecordCount): one allocation per stream.
-    streams[i].reserve(needed[i] + kStreamPadding);
-  }
-  const auto complete = [&] {
-    for (std::size_t i = 0; i < streams.size(); ++i)
-      if (streams[i].size() < needed[i]) return false;
-    return true;
-  };
-  std::uint64_t at = scan.recordCount == 0 ? sectionEnd : file.logicalFromPhysical(dataPhysical, what + "'s data");
-  if (at < sectionStart + e57::kSectionHeaderSize || at > sectionEnd)
+  if (length < e57::kSectionHeaderSize || length > file.logicalSize() - start)
+    fail("byte {}: {}: section length {} is outside [{}, {}] (the file's end)", scan.fileOffset + 8, what, length,
+         e57::kSectionHeaderSize, file.logicalSize() - start);
+  checkRecordCount(scan, length);
+  Section section{start + length, start + length};
+  if (scan.recordCount == 0) return section;
+  section.firstPacket = file.logicalFromPhysical(dataPhysical, what + "'s first data packet");
+  if (section.firstPacket < start + e57::kSectionHeaderSize || section.firstPacket > section.end)
     fail("byte {}: {}: its first data packet at byte {} lies outside the section", scan.fileOffset + 16, what,
          dataPhysical);
-  std::vector<std::uint16_t> lengths(scan.fields.size());
-  while (!complete()) {
-    const std::uint64_t packetPhysical = e57::physicalFromLogical(at);
-    if (sectionEnd - at < e57::kPacketHeaderSize)
-      fail("byte {}: {} ends before its {} records: its streams hold fewer bytes than they need", packetPhysical, what,
-           scan.recordCount);
-    char head[e57::kDataPacketHeaderSize] = {};
-    file.read(at, e57::kPacketHeaderSize, head, "packet header");
-    const auto type = static_cast<std::uint8_t>(head[0]);
-    const std::uint64_t length = readLittle<std::uint16_t>(std::string_view(head, 4), 2) + std::uint64_t{1};
-    if (length < e57::kPacketHeaderSize || length > sectionEnd - at)
-      fail("byte {}: packet of {} bytes is shorter than its header or runs past the end of {}", packetPhysical, length,
-           what);
-    if (type == e57::kDataPacket) {
-      const std::uint64_t streamTable = e57::kDataPacketHeaderSize + 2 * scan.fields.size();
-      if (length < streamTable)
-        fail("byte {}: data packet of {} bytes is shorter than its own header", packetPhysical, length);
-      file.read(at, e57::kDataPacketHeaderSize, head, "data packet header");
-      const auto count = readLittle<std::uint16_t>(std::string_view(head, 6), 4);
-      if (count != scan.fields.size())
-        fail("byte {}: data packet has {} bytestreams, but {}'s prototype has {} fields", packetPhysical, count,
-             scan.path, scan.fields.size());
-      std::string table;
-      file.append(at + e57::kDataPacketHeaderSize, 2 * scan.fields.size(), table, "bytestream lengths");
-      std::uint64_t total = 0;
-      for (std::size_t i = 0; i < lengths.size(); ++i) total += lengths[i] = readLittle<std::uint16_t>(table, 2 * i);
-      if (streamTable + total > length)
-        fail("byte {}: data packet's bytestreams ({} bytes) overflow its length {}", packetPhysical, total, length);
-      std::uint64_t streamAt = at + streamTable;
-      for (std::size_t i = 0; i < lengths.size(); ++i) {
-        file.append(streamAt, lengths[i], streams[i], "bytestream");
-        streamAt += lengths[i];
-      }
-    } else if (type != e57::kIndexPacket && type != e57::kEmptyPacket) {
-      fail("byte {}: packet type {} in {}: E57 packets are index (0), data (1) or empty (2)", packetPhysical, type,
-           what);
-    }
-    at += length;
-  }
-  for (std::string& stream : streams) stream.append(kStreamPadding, '\0');
-  return streams;
+  return section;
 }
 
 // ---------------------------------------------------------------- decoding
 
-// Decodes one field's values, a batch at a time, as doubles (integers of up
+// Bytes kept after a stream's data, so that the decoder may load whole words
+// at its end.
+constexpr std::size_t kStreamPadding = 16;
+constexpr std::size_t kBatch = 4096;
+
+// One field's bit stream as far as the packets read so far carry it: the
+// bytes not yet consumed, then kStreamPadding zero bytes.
+struct StreamBuffer {
+  std::string bytes = std::string(kStreamPadding, '\0');
+  std::uint64_t bit = 0;  // the first bit not consumed
+
+  std::uint64_t bitsLeft() const { return (bytes.size() - kStreamPadding) * 8 - bit; }
+  // Appends a packet's bytestream, first dropping the bytes consumed.
+  void refill(const PagedFile& file, std::uint64_t at, std::uint64_t count) {
+    bytes.resize(bytes.size() - kStreamPadding);
+    bytes.erase(0, bit / 8);
+    bit %= 8;
+    file.append(at, count, bytes, "bytestream");
+    bytes.append(kStreamPadding, '\0');
+  }
+};
+
+// Decodes `count` values of `field` from `stream` as doubles (integers of up
 // to 53 bits exactly: row, column, colour, state). The codec is chosen per
 // batch, not per value, and the loops load whole words.
-class FieldDecoder {
- public:
-  FieldDecoder(const Field& field, const std::string& stream) : field_(field), data_(stream.data()) {}
-
-  void decode(std::size_t count, double* out) {
-    switch (field_.codec) {
-      case Codec::Float32: return decodeFloats<float>(count, out);
-      case Codec::Float64: return decodeFloats<double>(count, out);
-      case Codec::Integer:
-      case Codec::ScaledInteger: return decodeIntegers(count, out);
-    }
-  }
-
- private:
-  template <class T>
-  void decodeFloats(std::size_t count, double* out) {
-    const char* at = data_ + bit_ / 8;
-    for (std::size_t i = 0; i < count; ++i) {
-      T value;
-      std::memcpy(&value, at + i * sizeof(T), sizeof(T));
-      out[i] = static_cast<double>(value);
-    }
-    bit_ += count * sizeof(T) * 8;
-  }
-
-  void decodeIntegers(std::size_t count, double* out) {
-    const int bits = field_.bits;
-    const auto minimum = static_cast<std::uint64_t>(field_.minimum);
-    const double scale = field_.scale, offset = field_.offset;
-    const auto value = [&](std::uint64_t raw) {
-      return static_cast<double>(static_cast<std::int64_t>(minimum + raw)) * scale + offset;
-    };
-    if (bits == 0) {
-      std::fill(out, out + count, value(0));
-      return;
-    }
-    const std::uint64_t mask = bits == 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << bits) - 1;
-    std::uint64_t bit = bit_;
-    if (bits <= 56) {
-      // One unaligned load holds the value: it starts within the word's first byte.
-      for (std::size_t i = 0; i < count; ++i, bit += bits) {
-        std::uint64_t word;
-        std::memcpy(&word, data_ + bit / 8, 8);
-        out[i] = value((word >> (bit % 8)) & mask);
+void decodeValues(const Field& field, StreamBuffer& stream, std::size_t count, double* out) {
+  const char* data = stream.bytes.data();
+  std::uint64_t bit = stream.bit;
+  stream.bit += count * field.bits;
+  if (field.codec == Codec::Float32 || field.codec == Codec::Float64) {
+    // Float streams hold only whole floats: byte-aligned.
+    const char* at = data + bit / 8;
+    if (field.codec == Codec::Float32) {
+      for (std::size_t i = 0; i < count; ++i) {
+        float value;
+        std::memcpy(&value, at + 4 * i, 4);
+        out[i] = value;
       }
     } else {
-      for (std::size_t i = 0; i < count; ++i, bit += bits) {
-        std::uint64_t low, high;
-        std::memcpy(&low, data_ + bit / 8, 8);
-        std::memcpy(&high, data_ + bit / 8 + 8, 8);
-        const int shift = static_cast<int>(bit % 8);
-        const std::uint64_t raw = shift == 0 ? low : (low >> shift) | (high << (64 - shift));
-        out[i] = value(raw & mask);
-      }
+      std::memcpy(out, at, 8 * count);
     }
-    bit_ = bit;
+    return;
+  }
+  const int bits = field.bits;
+  const auto minimum = static_cast<std::uint64_t>(field.minimum);
+  const double scale = field.scale, offset = field.offset;
+  const auto value = [&](std::uint64_t raw) {
+    return static_cast<double>(static_cast<std::int64_t>(minimum + raw)) * scale + offset;
+  };
+  const std::uint64_t mask = bits == 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << bits) - 1;
+  if (bits == 0) {
+    std::fill(out, out + count, value(0));
+  } else if (bits <= 56) {
+    // One unaligned load holds the value: it starts within the word's first byte.
+    for (std::size_t i = 0; i < count; ++i, bit += bits) {
+      std::uint64_t word;
+      std::memcpy(&word, data + bit / 8, 8);
+      out[i] = value((word >> (bit % 8)) & mask);
+    }
+  } else {
+    for (std::size_t i = 0; i < count; ++i, bit += bits) {
+      std::uint64_t low, high;
+      std::memcpy(&low, data + bit / 8, 8);
+      std::memcpy(&high, data + bit / 8 + 8, 8);
+      const int shift = static_cast<int>(bit % 8);
+      out[i] = value((shift == 0 ? low : (low >> shift) | (high << (64 - shift))) & mask);
+    }
+  }
+}
+
+// A scan's records, decoded a batch at a time as its packets come: memory
+// for one packet per field, not for the whole scan. Fields not asked for are
+// stepped over.
+class RecordReader {
+ public:
+  RecordReader(const PagedFile& file, const ScanHeader& scan, const Section& section, const std::vector<bool>& decoded)
+      : file_(file), scan_(scan), at_(section.firstPacket), end_(section.end), decoded_(decoded),
+        streams_(scan.fields.size()), values_(scan.fields.size()), lengths_(scan.fields.size()) {
+    for (std::size_t i = 0; i < decoded_.size(); ++i)
+      if (decoded_[i]) values_[i].resize(kBatch);
   }
 
-  const Field& field_;
-  const char* data_;
-  std::uint64_t bit_ = 0;
+  // Decodes the next records, kBatch at most; 0 once every record was.
+  std::size_t next() {
+    if (done_ == scan_.recordCount) return 0;
+    while (available() == 0) readPacket();
+    const auto count = static_cast<std::size_t>(std::min({std::uint64_t{kBatch}, available(), scan_.recordCount - done_}));
+    for (std::size_t i = 0; i < streams_.size(); ++i) {
+      if (decoded_[i])
+        decodeValues(scan_.fields[i], streams_[i], count, values_[i].data());
+      else
+        streams_[i].bit += count * scan_.fields[i].bits;
+    }
+    done_ += count;
+    return count;
+  }
+
+  const double* values(std::size_t field) const { return values_[field].data(); }
+
+ private:
+  // Records every stream holds whole (all of them when no field takes bits).
+  std::uint64_t available() const {
+    std::uint64_t records = scan_.recordCount - done_;
+    for (std::size_t i = 0; i < streams_.size(); ++i)
+      if (scan_.fields[i].bits > 0) records = std::min(records, streams_[i].bitsLeft() / scan_.fields[i].bits);
+    return records;
+  }
+
+  // Reads packets up to and including the next data packet into the streams.
+  void readPacket() {
+    const std::string what = sectionName(scan_);
+    for (;;) {
+      const std::uint64_t physical = e57::physicalFromLogical(at_);
+      if (end_ - at_ < e57::kPacketHeaderSize)
+        fail("byte {}: {} ends after {} of its {} records: its bytestreams hold no more", physical, what, done_,
+             scan_.recordCount);
+      char head[e57::kDataPacketHeaderSize] = {};
+      file_.read(at_, e57::kPacketHeaderSize, head, "packet header");
+      const auto type = static_cast<std::uint8_t>(head[0]);
+      const std::uint64_t length = readLittle<std::uint16_t>(std::string_view(head, 4), 2) + std::uint64_t{1};
+      if (length < e57::kPacketHeaderSize || length > end_ - at_)
+        fail("byte {}: packet of {} bytes is shorter than its header or runs past the end of {}", physical, length,
+             what);
+      if (type == e57::kDataPacket) {
+        readDataPacket(physical, length);
+        at_ += length;
+        return;
+      }
+      if (type != e57::kIndexPacket && type != e57::kEmptyPacket)
+        fail("byte {}: packet type {} in {}: E57 packets are index (0), data (1) or empty (2)", physical, type, what);
+      at_ += length;
+    }
+  }
+
+  void readDataPacket(std::uint64_t physical, std::uint64_t length) {
+    const std::uint64_t table = e57::kDataPacketHeaderSize + 2 * streams_.size();
+    if (length < table) fail("byte {}: data packet of {} bytes is shorter than its own header", physical, length);
+    char head[e57::kDataPacketHeaderSize];
+    file_.read(at_, e57::kDataPacketHeaderSize, head, "data packet header");
+    const auto count = readLittle<std::uint16_t>(std::string_view(head, e57::kDataPacketHeaderSize), 4);
+    if (count != streams_.size())
+      fail("byte {}: data packet has {} bytestreams, but {}'s prototype has {} fields", physical, count, scan_.path,
+           streams_.size());
+    lengthBytes_.clear();
+    file_.append(at_ + e57::kDataPacketHeaderSize, 2 * streams_.size(), lengthBytes_, "bytestream lengths");
+    std::uint64_t total = 0;
+    for (std::size_t i = 0; i < lengths_.size(); ++i) total += lengths_[i] = readLittle<std::uint16_t>(lengthBytes_, 2 * i);
+    if (table + total > length)
+      fail("byte {}: data packet's bytestreams ({} bytes) overflow its length {}", physical, total, length);
+    std::uint64_t streamAt = at_ + table;
+    for (std::size_t i = 0; i < streams_.size(); ++i) {
+      streams_[i].refill(file_, streamAt, lengths_[i]);
+      streamAt += lengths_[i];
+    }
+  }
+
+  const PagedFile& file_;
+  const ScanHeader& scan_;
+  std::uint64_t at_, end_;
+  std::vector<bool> decoded_;
+  std::vector<StreamBuffer> streams_;
+  std::vector<std::vector<double>> values_;
+  std::vector<std::uint16_t> lengths_;
+  std::string lengthBytes_;
+  std::uint64_t done_ = 0;
 };
 
 // ---------------------------------------------------------------- assembly
@@ -571,15 +618,85 @@ struct FieldIndex {
   bool has(Role role) const { return (*this)[role] >= 0; }
 };
 
-FieldIndex indexFields(const ScanHeader& scan) {
+// What a scan's records hold, and so what becomes of them.
+struct ScanPlan {
   FieldIndex index;
+  bool cartesian = false;
+  Role invalidRole = Role::CartesianInvalid;
+  bool hasIntensity = false, hasColor = false, hasGrid = false, hasReturns = false, hasNormals = false;
+  std::array<Role, 3> coordinates{};
+  std::vector<Role> used;  // the fields read into the Scan
+};
+
+ScanPlan planScan(const ScanHeader& scan) {
+  ScanPlan plan;
+  FieldIndex& index = plan.index;
   for (std::size_t i = 0; i < scan.fields.size(); ++i) {
     const Role role = scan.fields[i].role;
     if (role == Role::Other) continue;
     if (index.has(role)) fail("XML element {}: a second {} field", scan.fields[i].path, scan.fields[i].name);
     index.of[static_cast<std::size_t>(role)] = static_cast<int>(i);
   }
-  return index;
+  plan.cartesian = index.has(Role::X) && index.has(Role::Y) && index.has(Role::Z);
+  const bool spherical = index.has(Role::Range) && index.has(Role::Azimuth) && index.has(Role::Elevation);
+  if (!plan.cartesian && !spherical)
+    fail("XML element {}/points/prototype: neither cartesianX, Y and Z nor sphericalRange, Azimuth and Elevation",
+         scan.path);
+  plan.coordinates = plan.cartesian ? std::array<Role, 3>{Role::X, Role::Y, Role::Z}
+                                    : std::array<Role, 3>{Role::Range, Role::Azimuth, Role::Elevation};
+  plan.invalidRole = plan.cartesian ? Role::CartesianInvalid : Role::SphericalInvalid;
+  plan.hasIntensity = index.has(Role::Intensity);
+  plan.hasColor = index.has(Role::Red) && index.has(Role::Green) && index.has(Role::Blue);
+  plan.hasGrid = index.has(Role::Row) && index.has(Role::Column);
+  plan.hasReturns = index.has(Role::ReturnIndex) && index.has(Role::ReturnCount);
+  plan.hasNormals = index.has(Role::NormalX) && index.has(Role::NormalY) && index.has(Role::NormalZ);
+  for (const Role role : {Role::Row, Role::Column})
+    if (index.has(role)) {
+      const Field& field = scan.fields[index[role]];
+      if (field.codec != Codec::Integer || field.minimum < 0 || field.maximum > std::numeric_limits<std::uint32_t>::max())
+        fail("XML element {}: row and column indices are Integers in [0, 2^32)", field.path);
+    }
+  plan.used.assign(plan.coordinates.begin(), plan.coordinates.end());
+  if (index.has(plan.invalidRole)) plan.used.push_back(plan.invalidRole);
+  if (plan.hasIntensity) plan.used.push_back(Role::Intensity);
+  if (plan.hasColor) plan.used.insert(plan.used.end(), {Role::Red, Role::Green, Role::Blue});
+  if (plan.hasGrid) plan.used.insert(plan.used.end(), {Role::Row, Role::Column});
+  if (plan.hasReturns) plan.used.insert(plan.used.end(), {Role::ReturnIndex, Role::ReturnCount});
+  if (plan.hasNormals) plan.used.insert(plan.used.end(), {Role::NormalX, Role::NormalY, Role::NormalZ});
+  return plan;
+}
+
+// Which fields a pass decodes: `roles` (absent ones ignored).
+std::vector<bool> decodedFields(const ScanHeader& scan, const ScanPlan& plan, const std::vector<Role>& roles) {
+  std::vector<bool> decoded(scan.fields.size(), false);
+  for (const Role role : roles)
+    if (plan.index.has(role)) decoded[plan.index[role]] = true;
+  return decoded;
+}
+
+// A record's position in its scan's own frame (spherical coordinates
+// converted), then moved by the scan's pose into the file's frame.
+std::array<double, 3> inScanFrame(bool cartesian, double a, double b, double c) {
+  if (cartesian) return {a, b, c};
+  const double range = a, azimuth = b, elevation = c;
+  return {range * std::cos(elevation) * std::cos(azimuth), range * std::cos(elevation) * std::sin(azimuth),
+          range * std::sin(elevation)};
+}
+
+std::array<double, 3> posed(const Pose& pose, const std::array<double, 3>& p) {
+  if (pose.identity) return p;
+  const auto& r = pose.matrix;
+  return {r[0][0] * p[0] + r[0][1] * p[1] + r[0][2] * p[2] + pose.translation[0],
+          r[1][0] * p[0] + r[1][1] * p[1] + r[1][2] * p[2] + pose.translation[1],
+          r[2][0] * p[0] + r[2][1] * p[1] + r[2][2] * p[2] + pose.translation[2]};
+}
+
+bool outside(const std::array<std::array<double, 2>, 3>& box, const std::array<double, 3>& p) {
+  bool out = false;
+  for (int axis = 0; axis < 3; ++axis)
+    out |= !(p[axis] >= box[axis][0] - 1e-6 * (1 + std::abs(box[axis][0])) &&
+             p[axis] <= box[axis][1] + 1e-6 * (1 + std::abs(box[axis][1])));
+  return out;
 }
 
 // A linear map of a scan's raw values onto apo's range ([0, 1] intensities,
@@ -607,6 +724,40 @@ std::string describeLimits(const std::optional<std::array<double, 2>>& limits) {
   return fmt::format("[{}, {}]", (*limits)[0], (*limits)[1]);
 }
 
+// A scan as the first pass found it.
+struct ScanTally {
+  std::uint64_t valid = 0, directionOnly = 0, invalid = 0, outsideBounds = 0;
+};
+
+// First pass: the valid records' positions into the frame, the others counted.
+ScanTally measureScan(const PagedFile& file, const ScanHeader& scan, const Section& section, const ScanPlan& plan,
+                      LocalFrame& frame) {
+  std::vector<Role> roles(plan.coordinates.begin(), plan.coordinates.end());
+  roles.push_back(plan.invalidRole);
+  RecordReader reader(file, scan, section, decodedFields(scan, plan, roles));
+  const int invalidField = plan.index[plan.invalidRole];
+  ScanTally tally;
+  while (const std::size_t count = reader.next()) {
+    const double* a = reader.values(plan.index[plan.coordinates[0]]);
+    const double* b = reader.values(plan.index[plan.coordinates[1]]);
+    const double* c = reader.values(plan.index[plan.coordinates[2]]);
+    const double* state = invalidField >= 0 ? reader.values(invalidField) : nullptr;
+    for (std::size_t i = 0; i < count; ++i) {
+      if (state && state[i] != 0.0) {
+        ++(state[i] == 1.0 ? tally.directionOnly : tally.invalid);
+        continue;
+      }
+      const auto local = inScanFrame(plan.cartesian, a[i], b[i], c[i]);
+      // cartesianBounds are in the scan's own frame: checked before the pose.
+      if (scan.coordinateBounds) tally.outsideBounds += outside(*scan.coordinateBounds, local);
+      const auto world = posed(scan.pose, local);
+      frame.include(world[0], world[1], world[2]);
+      ++tally.valid;
+    }
+  }
+  return tally;
+}
+
 // Per-point attributes that some scans have and others may not: the points
 // of scans without one get zeros (with a note) once any scan has it.
 template <class T>
@@ -614,230 +765,146 @@ void catchUp(std::vector<T>& values, std::size_t size) {
   if (values.size() < size) values.resize(size, T{});
 }
 
-struct Assembly {
-  Scan scan;
-  PositionCollector positions;
-  std::vector<std::array<double, 3>> stationTranslations;
-  // Scans lacking an attribute some other scan has, by attribute.
-  std::vector<std::string> withoutIntensity, withoutColor, withoutGrid, withoutReturns, withoutNormals;
-  bool anyNormals = false;
-};
-
-struct ScanTally {
-  std::uint64_t read = 0, directionOnly = 0, invalid = 0, outsideBounds = 0;
-  std::uint32_t rowMaximum = 0, columnMaximum = 0;
-};
-
-constexpr std::size_t kBatch = 4096;
-
-void decodeScan(const ScanHeader& header, const Streams& streams, std::uint16_t station, Assembly& out) {
-  const FieldIndex index = indexFields(header);
-  const bool cartesian = index.has(Role::X) && index.has(Role::Y) && index.has(Role::Z);
-  const bool spherical = index.has(Role::Range) && index.has(Role::Azimuth) && index.has(Role::Elevation);
-  if (!cartesian && !spherical)
-    fail("XML element {}/points/prototype: neither cartesianX, Y and Z nor sphericalRange, Azimuth and Elevation",
-         header.path);
-  const Role invalidRole = cartesian ? Role::CartesianInvalid : Role::SphericalInvalid;
-  const bool hasIntensity = index.has(Role::Intensity);
-  const bool hasColor = index.has(Role::Red) && index.has(Role::Green) && index.has(Role::Blue);
-  const bool hasGrid = index.has(Role::Row) && index.has(Role::Column);
-  const bool hasReturns = index.has(Role::ReturnIndex) && index.has(Role::ReturnCount);
-  const bool hasNormals = index.has(Role::NormalX) && index.has(Role::NormalY) && index.has(Role::NormalZ);
-  for (const Role role : {Role::Row, Role::Column})
-    if (index.has(role)) {
-      const Field& field = header.fields[index[role]];
-      if (field.codec != Codec::Integer || field.minimum < 0 || field.maximum > std::numeric_limits<std::uint32_t>::max())
-        fail("XML element {}: row and column indices are Integers in [0, 2^32)", field.path);
-    }
-
-  // Which streams to decode: the others were only checked for length.
-  std::vector<Role> used = {cartesian ? Role::X : Role::Range, cartesian ? Role::Y : Role::Azimuth,
-                            cartesian ? Role::Z : Role::Elevation};
-  if (index.has(invalidRole)) used.push_back(invalidRole);
-  if (hasIntensity) used.push_back(Role::Intensity);
-  if (hasColor) used.insert(used.end(), {Role::Red, Role::Green, Role::Blue});
-  if (hasGrid) used.insert(used.end(), {Role::Row, Role::Column});
-  if (hasReturns) used.insert(used.end(), {Role::ReturnIndex, Role::ReturnCount});
-  if (hasNormals) used.insert(used.end(), {Role::NormalX, Role::NormalY, Role::NormalZ});
-  std::vector<FieldDecoder> decoders;
-  std::array<std::vector<double>, static_cast<std::size_t>(Role::Count)> batch;
-  for (const Role role : used) {
-    decoders.emplace_back(header.fields[index[role]], streams[index[role]]);
-    batch[static_cast<std::size_t>(role)].resize(kBatch);
-  }
-  const auto values = [&](Role role) { return batch[static_cast<std::size_t>(role)].data(); };
-
-  // The maps onto apo's ranges, and the notes saying which limits were used.
+// Second pass: the valid records into the Scan, in the frame.
+void decodeScan(const PagedFile& file, const ScanHeader& scan, const Section& section, const ScanPlan& plan,
+                const LocalFrame& frame, std::uint16_t station, std::size_t reserve, Scan& out) {
+  const FieldIndex& index = plan.index;
+  const Field& intensityField = scan.fields[std::max(index[Role::Intensity], 0)];
   const LinearMap intensityMap =
-      hasIntensity ? mapOnto(limitsOf(header.intensityLimits, header.fields[index[Role::Intensity]]), 1.0) : LinearMap{};
+      plan.hasIntensity ? mapOnto(limitsOf(scan.intensityLimits, intensityField), 1.0) : LinearMap{};
+  const std::array<Role, 3> colorRoles = {Role::Red, Role::Green, Role::Blue};
   std::array<LinearMap, 3> colorMaps;
-  const Role colorRoles[] = {Role::Red, Role::Green, Role::Blue};
-  if (hasColor)
-    for (int c = 0; c < 3; ++c) colorMaps[c] = mapOnto(limitsOf(header.colorLimits[c], header.fields[index[colorRoles[c]]]), 255.0);
-  std::vector<std::string>& notes = out.scan.readNotes;
-  if (hasIntensity)
-    notes.push_back(fmt::format("{} ({}): intensities mapped to [0, 1] from their limits {}", header.path, header.name,
-                                describeLimits(limitsOf(header.intensityLimits, header.fields[index[Role::Intensity]]))));
-  if (hasColor)
-    notes.push_back(fmt::format("{} ({}): colours mapped to 0-255 from their limits {}", header.path, header.name,
-                                describeLimits(limitsOf(header.colorLimits[0], header.fields[index[Role::Red]]))));
+  if (plan.hasColor)
+    for (int c = 0; c < 3; ++c) colorMaps[c] = mapOnto(limitsOf(scan.colorLimits[c], scan.fields[index[colorRoles[c]]]), 255.0);
+  const std::string label = fmt::format("{} ({})", scan.path, scan.name);
+  if (plan.hasIntensity)
+    out.readNotes.push_back(fmt::format("{}: intensities mapped to [0, 1] from their limits {}", label,
+                                        describeLimits(limitsOf(scan.intensityLimits, intensityField))));
+  if (plan.hasColor)
+    out.readNotes.push_back(fmt::format("{}: colours mapped to 0-255 from their limits {}", label,
+                                        describeLimits(limitsOf(scan.colorLimits[0], scan.fields[index[Role::Red]]))));
 
-  PointSet& points = out.scan.points;
-  const std::size_t before = out.positions.size();
-  const std::size_t after = before + header.recordCount;
-  if (hasIntensity) {
-    catchUp(points.intensities, before);
-    points.intensities.reserve(after);
-  }
-  if (hasColor) {
-    catchUp(points.colors, before);
-    points.colors.reserve(after);
-  }
-  if (hasGrid) {
-    catchUp(points.rows, before);
-    catchUp(points.columns, before);
-  }
-  if (hasReturns) {
-    catchUp(points.returnNumbers, before);
-    catchUp(points.returnCounts, before);
-  }
-  if (hasNormals) points.normals.reserve(after);
-  out.positions.reserve(after);
-  points.stations.reserve(after);
+  PointSet& points = out.points;
+  const std::size_t before = points.size();
+  const auto prepare = [&](auto& values, bool present) {
+    if (!present) return;
+    catchUp(values, before);
+    values.reserve(reserve);
+  };
+  prepare(points.intensities, plan.hasIntensity);
+  prepare(points.colors, plan.hasColor);
+  prepare(points.rows, plan.hasGrid);
+  prepare(points.columns, plan.hasGrid);
+  prepare(points.returnNumbers, plan.hasReturns);
+  prepare(points.returnCounts, plan.hasReturns);
+  if (plan.hasNormals) points.normals.reserve(reserve);
 
-  const Pose& pose = header.pose;
-  const auto& r = pose.matrix;
-  ScanTally tally;
-  for (std::uint64_t start = 0; start < header.recordCount; start += kBatch) {
-    const auto count = static_cast<std::size_t>(std::min<std::uint64_t>(kBatch, header.recordCount - start));
-    for (std::size_t d = 0; d < decoders.size(); ++d) decoders[d].decode(count, values(used[d]));
-    const double* a = values(used[0]);
-    const double* b = values(used[1]);
-    const double* c = values(used[2]);
-    const double* state = index.has(invalidRole) ? values(invalidRole) : nullptr;
+  RecordReader reader(file, scan, section, decodedFields(scan, plan, plan.used));
+  const auto values = [&](Role role) { return reader.values(index[role]); };
+  const auto& r = scan.pose.matrix;
+  const int invalidField = index[plan.invalidRole];
+  while (const std::size_t count = reader.next()) {
+    const double* a = values(plan.coordinates[0]);
+    const double* b = values(plan.coordinates[1]);
+    const double* c = values(plan.coordinates[2]);
+    const double* state = invalidField >= 0 ? reader.values(invalidField) : nullptr;
     for (std::size_t i = 0; i < count; ++i) {
-      if (state && state[i] != 0.0) {
-        ++(state[i] == 1.0 ? tally.directionOnly : tally.invalid);
-        continue;
-      }
-      double x = a[i], y = b[i], z = c[i];
-      if (!cartesian) {
-        const double range = a[i], azimuth = b[i], elevation = c[i];
-        x = range * std::cos(elevation) * std::cos(azimuth);
-        y = range * std::cos(elevation) * std::sin(azimuth);
-        z = range * std::sin(elevation);
-      }
-      // cartesianBounds are in the scan's own frame: checked before the pose.
-      if (header.coordinateBounds) {
-        const auto& box = *header.coordinateBounds;
-        const double v[3] = {x, y, z};
-        bool outside = false;
-        for (int axis = 0; axis < 3; ++axis)
-          outside |= !(v[axis] >= box[axis][0] - 1e-6 * (1 + std::abs(box[axis][0])) &&
-                       v[axis] <= box[axis][1] + 1e-6 * (1 + std::abs(box[axis][1])));
-        tally.outsideBounds += outside;
-      }
-      if (!pose.identity) {
-        const double px = r[0][0] * x + r[0][1] * y + r[0][2] * z + pose.translation[0];
-        const double py = r[1][0] * x + r[1][1] * y + r[1][2] * z + pose.translation[1];
-        const double pz = r[2][0] * x + r[2][1] * y + r[2][2] * z + pose.translation[2];
-        x = px, y = py, z = pz;
-      }
-      out.positions.push(x, y, z);
+      if (state && state[i] != 0.0) continue;
+      const auto world = posed(scan.pose, inScanFrame(plan.cartesian, a[i], b[i], c[i]));
+      points.positions.push_back(frame.local(world[0], world[1], world[2]));
       points.stations.push_back(station);
-      if (hasIntensity) points.intensities.push_back(static_cast<float>(intensityMap(values(Role::Intensity)[i])));
-      if (hasColor) {
-        std::uint8_t rgb[3];
+      if (plan.hasIntensity) points.intensities.push_back(static_cast<float>(intensityMap(values(Role::Intensity)[i])));
+      if (plan.hasColor) {
+        std::array<std::uint8_t, 3> rgb;
         for (int k = 0; k < 3; ++k)
           rgb[k] = static_cast<std::uint8_t>(std::clamp(std::round(colorMaps[k](values(colorRoles[k])[i])), 0.0, 255.0));
         points.colors.push_back({rgb[0], rgb[1], rgb[2]});
       }
-      if (hasGrid) {
-        const auto row = static_cast<std::uint32_t>(values(Role::Row)[i]);
-        const auto column = static_cast<std::uint32_t>(values(Role::Column)[i]);
-        points.rows.push_back(row);
-        points.columns.push_back(column);
-        tally.rowMaximum = std::max(tally.rowMaximum, row);
-        tally.columnMaximum = std::max(tally.columnMaximum, column);
+      if (plan.hasGrid) {
+        points.rows.push_back(static_cast<std::uint32_t>(values(Role::Row)[i]));
+        points.columns.push_back(static_cast<std::uint32_t>(values(Role::Column)[i]));
       }
-      if (hasReturns) {
+      if (plan.hasReturns) {
         // E57 counts returns from 0, LAS (and PointSet) from 1.
         points.returnNumbers.push_back(
             static_cast<std::uint8_t>(std::clamp(values(Role::ReturnIndex)[i] + 1.0, 0.0, 255.0)));
         points.returnCounts.push_back(static_cast<std::uint8_t>(std::clamp(values(Role::ReturnCount)[i], 0.0, 255.0)));
       }
-      if (hasNormals) {
+      if (plan.hasNormals) {
         const double nx = values(Role::NormalX)[i], ny = values(Role::NormalY)[i], nz = values(Role::NormalZ)[i];
         points.normals.emplace_back(static_cast<float>(r[0][0] * nx + r[0][1] * ny + r[0][2] * nz),
                                     static_cast<float>(r[1][0] * nx + r[1][1] * ny + r[1][2] * nz),
                                     static_cast<float>(r[2][0] * nx + r[2][1] * ny + r[2][2] * nz));
       }
-      ++tally.read;
     }
   }
+}
 
-  // The scan's station.
-  ScanStation stationEntry;
-  stationEntry.name = header.name;
-  stationEntry.rotationWxyz = pose.rotationWxyz;
-  stationEntry.hasPose = header.hasPose;
-  stationEntry.pointCount = tally.read;
-  if (hasGrid && tally.read > 0) {
-    stationEntry.rowCount = tally.rowMaximum + 1;
-    stationEntry.columnCount = tally.columnMaximum + 1;
-  } else if (header.rowBounds && header.columnBounds && (*header.rowBounds)[1] >= 0 && (*header.columnBounds)[1] >= 0 &&
-             (*header.rowBounds)[1] < 4294967295.0 && (*header.columnBounds)[1] < 4294967295.0) {
-    stationEntry.rowCount = static_cast<std::uint32_t>((*header.rowBounds)[1]) + 1;
-    stationEntry.columnCount = static_cast<std::uint32_t>((*header.columnBounds)[1]) + 1;
+// The scan's station: its pose, its grid's size (from its points' indices,
+// else from its indexBounds) and its count of points.
+ScanStation stationOf(const ScanHeader& scan, const ScanPlan& plan, const PointSet& points, std::size_t first,
+                      std::uint64_t count) {
+  ScanStation station;
+  station.name = scan.name;
+  station.rotationWxyz = scan.pose.rotationWxyz;
+  station.hasPose = scan.hasPose;
+  station.pointCount = count;
+  if (plan.hasGrid && count > 0) {
+    station.rowCount = *std::max_element(points.rows.begin() + first, points.rows.end()) + 1;
+    station.columnCount = *std::max_element(points.columns.begin() + first, points.columns.end()) + 1;
+  } else if (scan.rowBounds && scan.columnBounds) {
+    const auto size = [](double maximum) {
+      return maximum >= 0.0 && maximum < 4294967295.0 ? static_cast<std::uint32_t>(maximum) + 1 : 0u;
+    };
+    station.rowCount = size((*scan.rowBounds)[1]);
+    station.columnCount = size((*scan.columnBounds)[1]);
   }
-  out.scan.stations.push_back(stationEntry);
-  out.stationTranslations.push_back(pose.translation);
+  return station;
+}
 
-  const std::string label = fmt::format("{} ({})", header.path, header.name);
-  if (!hasIntensity) out.withoutIntensity.push_back(label);
-  if (!hasColor) out.withoutColor.push_back(label);
-  if (!hasGrid) out.withoutGrid.push_back(label);
-  if (!hasReturns) out.withoutReturns.push_back(label);
-  if (!hasNormals) out.withoutNormals.push_back(label);
-  out.anyNormals |= hasNormals;
+void noteScan(const ScanHeader& scan, const ScanPlan& plan, const ScanTally& tally, std::vector<std::string>& notes) {
+  const std::string label = fmt::format("{} ({})", scan.path, scan.name);
   if (tally.directionOnly + tally.invalid > 0)
     notes.push_back(fmt::format("{}: {} of {} records skipped as invalid ({} with a direction only, {} invalid)", label,
-                                tally.directionOnly + tally.invalid, header.recordCount, tally.directionOnly,
+                                tally.directionOnly + tally.invalid, scan.recordCount, tally.directionOnly,
                                 tally.invalid));
   if (tally.outsideBounds > 0)
-    notes.push_back(fmt::format("{}: {} points lie outside its declared cartesianBounds", label, tally.outsideBounds));
+    notes.push_back(fmt::format("{}: {} points lie outside its declared cartesianBounds (in its own frame)", label,
+                                tally.outsideBounds));
   std::vector<std::string> skipped;
-  for (const Field& field : header.fields)
-    if (std::find_if(used.begin(), used.end(), [&](Role role) { return role == field.role; }) == used.end())
-      skipped.push_back(field.name);
-  if (!skipped.empty())
-    notes.push_back(fmt::format("{}: fields not kept: {}", label, fmt::join(skipped, ", ")));
-  if (!header.unread.empty())
-    notes.push_back(fmt::format("{}: elements not read: {}", label, fmt::join(header.unread, ", ")));
+  for (const Field& field : scan.fields)
+    if (std::find(plan.used.begin(), plan.used.end(), field.role) == plan.used.end()) skipped.push_back(field.name);
+  if (!skipped.empty()) notes.push_back(fmt::format("{}: fields not kept: {}", label, fmt::join(skipped, ", ")));
+  if (!scan.unread.empty())
+    notes.push_back(fmt::format("{}: elements not read: {}", label, fmt::join(scan.unread, ", ")));
 }
 
 // Attributes that only some scans have: zeros for the others' points (or,
 // for normals, which have no neutral value, none at all), said in a note.
-void fillMissingAttributes(Assembly& out) {
-  PointSet& points = out.scan.points;
-  const std::size_t size = out.positions.size();
-  const auto fill = [&](auto& values, const std::vector<std::string>& without, const char* what) {
-    if (values.empty() || without.empty()) return;
-    catchUp(values, size);
-    out.scan.readNotes.push_back(fmt::format("{} {}: 0 for the points of {}", what,
-                                             without.size() == 1 ? "missing in one scan" : "missing in some scans",
-                                             fmt::join(without, ", ")));
+void fillMissingAttributes(const std::vector<ScanHeader>& scans, const std::vector<ScanPlan>& plans, Scan& out) {
+  PointSet& points = out.points;
+  const auto without = [&](bool ScanPlan::*has) {
+    std::vector<std::string> labels;
+    for (std::size_t s = 0; s < scans.size(); ++s)
+      if (!(plans[s].*has)) labels.push_back(fmt::format("{} ({})", scans[s].path, scans[s].name));
+    return labels;
   };
-  fill(points.intensities, out.withoutIntensity, "intensity");
-  fill(points.colors, out.withoutColor, "colour");
-  fill(points.rows, out.withoutGrid, "row index");
+  const auto fill = [&](auto& values, bool ScanPlan::*has, const char* what) {
+    const std::vector<std::string> lacking = without(has);
+    if (values.empty() || lacking.empty()) return;
+    catchUp(values, points.size());
+    out.readNotes.push_back(fmt::format("{} missing in {}: 0 for their points", what, fmt::join(lacking, ", ")));
+  };
+  fill(points.intensities, &ScanPlan::hasIntensity, "intensity");
+  fill(points.colors, &ScanPlan::hasColor, "colour");
+  fill(points.rows, &ScanPlan::hasGrid, "row and column indices");
   catchUp(points.columns, points.rows.size());
-  fill(points.returnNumbers, out.withoutReturns, "return number");
+  fill(points.returnNumbers, &ScanPlan::hasReturns, "return numbers");
   catchUp(points.returnCounts, points.returnNumbers.size());
-  if (out.anyNormals && !out.withoutNormals.empty()) {
+  const std::vector<std::string> withoutNormals = without(&ScanPlan::hasNormals);
+  if (points.hasNormals() && !withoutNormals.empty()) {
     points.normals.clear();
-    out.scan.readNotes.push_back(
-        fmt::format("normals dropped: {} have none", fmt::join(out.withoutNormals, ", ")));
+    out.readNotes.push_back(fmt::format("normals dropped: {} have none", fmt::join(withoutNormals, ", ")));
   }
 }
 
@@ -894,33 +961,51 @@ Scan readScans(std::string_view bytes) {
   if (!root) fail("XML element /e57Root: missing: the XML section is not an E57 description");
   const Node data3D = root.child("data3D");
   if (!data3D) fail("XML element /data3D: missing: the file holds no scans");
-  const std::vector<Node> scans = childElements(data3D);
-  if (scans.size() > std::numeric_limits<std::uint16_t>::max())
-    fail("XML element /data3D: {} scans: apo reads at most {}", scans.size(), std::numeric_limits<std::uint16_t>::max());
+  const std::vector<Node> nodes = childElements(data3D);
+  if (nodes.size() > std::numeric_limits<std::uint16_t>::max())
+    fail("XML element /data3D: {} scans: apo reads at most {}", nodes.size(), std::numeric_limits<std::uint16_t>::max());
 
-  Assembly out;
-  std::vector<std::string>& notes = out.scan.readNotes;
-  std::vector<std::uint64_t> records;
-  for (std::size_t s = 0; s < scans.size(); ++s) {
-    const ScanHeader scanHeader = parseScanHeader(scans[s], notes);
-    const Streams streams = readStreams(file, scanHeader);
-    decodeScan(scanHeader, streams, static_cast<std::uint16_t>(s), out);
-    records.push_back(scanHeader.recordCount);
+  Scan out;
+  std::vector<ScanHeader> scans;
+  std::vector<ScanPlan> plans;
+  std::vector<Section> sections;
+  for (const Node& node : nodes) {
+    scans.push_back(parseScanHeader(node, out.readNotes));
+    plans.push_back(planScan(scans.back()));
+    sections.push_back(locateSection(file, scans.back()));
   }
-  if (out.positions.size() == 0)
-    fail("no points: the file's {} scans hold no valid records ({} in all)", scans.size(),
-         std::accumulate(records.begin(), records.end(), std::uint64_t{0}));
-  fillMissingAttributes(out);
-  noteUnreadRoot(root, notes);
-  notes.insert(notes.begin(), fmt::format("E57 {}.{}: {} scans ({} records)", header.major, header.minor, scans.size(),
-                                          fmt::join(records, ", ")));
-  out.positions.finishInto(out.scan);
-  // Stations in the same local frame as the points.
-  for (std::size_t s = 0; s < out.scan.stations.size(); ++s)
+  // First pass: the frame, and how many points there are.
+  LocalFrame frame;
+  std::vector<ScanTally> tallies;
+  std::uint64_t valid = 0, records = 0;
+  for (std::size_t s = 0; s < scans.size(); ++s) {
+    tallies.push_back(measureScan(file, scans[s], sections[s], plans[s], frame));
+    valid += tallies.back().valid;
+    records += scans[s].recordCount;
+  }
+  if (valid == 0) fail("no points: the file's {} scans hold no valid records ({} in all)", scans.size(), records);
+  frame.fixInto(out);
+  // Second pass: the points.
+  out.points.positions.reserve(valid);
+  out.points.stations.reserve(valid);
+  for (std::size_t s = 0; s < scans.size(); ++s) {
+    const std::size_t first = out.points.size();
+    decodeScan(file, scans[s], sections[s], plans[s], frame, static_cast<std::uint16_t>(s), first + tallies[s].valid,
+               out);
+    ScanStation station = stationOf(scans[s], plans[s], out.points, first, tallies[s].valid);
+    // Stations in the same local frame as the points.
     for (int axis = 0; axis < 3; ++axis)
-      out.scan.stations[s].position[axis] =
-          static_cast<float>(out.stationTranslations[s][axis] - out.scan.origin[axis]);
-  return std::move(out.scan);
+      station.position[axis] = static_cast<float>(scans[s].pose.translation[axis] - out.origin[axis]);
+    out.stations.push_back(station);
+    noteScan(scans[s], plans[s], tallies[s], out.readNotes);
+  }
+  fillMissingAttributes(scans, plans, out);
+  noteUnreadRoot(root, out.readNotes);
+  std::vector<std::uint64_t> counts;
+  for (const ScanHeader& scan : scans) counts.push_back(scan.recordCount);
+  out.readNotes.insert(out.readNotes.begin(), fmt::format("E57 {}.{}: {} scans ({} records)", header.major,
+                                                          header.minor, scans.size(), fmt::join(counts, ", ")));
+  return out;
 }
 
 }  // namespace

@@ -94,18 +94,6 @@ class BitWriter {
 
 // ---------------------------------------------------------------- stations
 
-// A data3D to write: the points of one station in its frame.
-struct StationData {
-  std::string name;
-  bool writePose = false;
-  std::array<double, 4> rotationWxyz = {1, 0, 0, 0};
-  std::array<double, 3> translation = {0, 0, 0};  // in the file's frame (origin included)
-  std::vector<std::uint32_t> indices;             // into the scan's points
-  std::vector<std::array<double, 3>> positions;   // in the station's frame
-  std::vector<std::array<float, 3>> normals;      // in the station's frame
-  std::uint32_t rowCount = 0, columnCount = 0;
-};
-
 using Matrix3 = std::array<std::array<double, 3>, 3>;
 
 Matrix3 rotationMatrix(const std::array<double, 4>& q) {
@@ -115,11 +103,28 @@ Matrix3 rotationMatrix(const std::array<double, 4>& q) {
            {2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)}}};
 }
 
-// R^T v: into the station's frame.
-std::array<double, 3> inverseRotate(const Matrix3& r, double x, double y, double z) {
-  return {r[0][0] * x + r[1][0] * y + r[2][0] * z, r[0][1] * x + r[1][1] * y + r[2][1] * z,
-          r[0][2] * x + r[1][2] * y + r[2][2] * z};
-}
+// A data3D to write: one station's pose and which points are its.
+struct StationData {
+  std::string name;
+  bool writePose = false;
+  std::array<double, 4> rotationWxyz = {1, 0, 0, 0};
+  std::array<double, 3> translation = {0, 0, 0};  // in the file's frame (origin included)
+  Vec3f position = Vec3f::Zero();                 // in the scan's local frame
+  Matrix3 rotation = rotationMatrix({1, 0, 0, 0});
+  std::vector<std::uint32_t> indices;             // into the scan's points
+  std::uint32_t rowCount = 0, columnCount = 0;
+
+  // R^T v: a direction into the station's frame.
+  std::array<double, 3> unrotated(double x, double y, double z) const {
+    const Matrix3& r = rotation;
+    return {r[0][0] * x + r[1][0] * y + r[2][0] * z, r[0][1] * x + r[1][1] * y + r[2][1] * z,
+            r[0][2] * x + r[1][2] * y + r[2][2] * z};
+  }
+  // A point of the scan's local frame in the station's frame, in double.
+  std::array<double, 3> local(const Vec3f& p) const {
+    return unrotated(double(p.x()) - position.x(), double(p.y()) - position.y(), double(p.z()) - position.z());
+  }
+};
 
 std::vector<StationData> splitByStation(const Scan& scan) {
   const PointSet& points = scan.points;
@@ -132,44 +137,27 @@ std::vector<StationData> splitByStation(const Scan& scan) {
     all.indices.resize(points.size());
     for (std::uint32_t i = 0; i < points.size(); ++i) all.indices[i] = i;
     stations.push_back(std::move(all));
-  } else {
-    for (std::size_t s = 0; s < scan.stations.size(); ++s) {
-      const ScanStation& station = scan.stations[s];
-      StationData data;
-      data.name = station.name.empty() ? fmt::format("scan {}", s) : station.name;
-      data.rotationWxyz = station.rotationWxyz;
-      for (int axis = 0; axis < 3; ++axis) data.translation[axis] = scan.origin[axis] + station.position[axis];
-      data.writePose = station.hasPose || data.translation != std::array<double, 3>{} ||
-                       data.rotationWxyz != std::array<double, 4>{1, 0, 0, 0};
-      data.rowCount = station.rowCount;
-      data.columnCount = station.columnCount;
-      stations.push_back(std::move(data));
-    }
-    APO_CHECK_OP(points.stations.size(), ==, points.size());
-    for (std::uint32_t i = 0; i < points.size(); ++i) {
-      APO_CHECK_OP(points.stations[i], <, stations.size());
-      stations[points.stations[i]].indices.push_back(i);
-    }
+    return stations;
   }
-  // Positions (and normals) into each station's frame, in double.
-  for (std::size_t s = 0; s < stations.size(); ++s) {
-    StationData& data = stations[s];
-    const Matrix3 r = rotationMatrix(data.rotationWxyz);
-    const Vec3f position = scan.stations.empty() ? Vec3f::Zero() : scan.stations[s].position;
-    data.positions.reserve(data.indices.size());
-    for (const std::uint32_t i : data.indices) {
-      const Vec3f& p = points.positions[i];
-      data.positions.push_back(inverseRotate(r, double(p.x()) - position.x(), double(p.y()) - position.y(),
-                                             double(p.z()) - position.z()));
-    }
-    if (points.hasNormals()) {
-      data.normals.reserve(data.indices.size());
-      for (const std::uint32_t i : data.indices) {
-        const Vec3f& n = points.normals[i];
-        const auto q = inverseRotate(r, n.x(), n.y(), n.z());
-        data.normals.push_back({float(q[0]), float(q[1]), float(q[2])});
-      }
-    }
+  for (std::size_t s = 0; s < scan.stations.size(); ++s) {
+    const ScanStation& station = scan.stations[s];
+    StationData data;
+    data.name = station.name.empty() ? fmt::format("scan {}", s) : station.name;
+    data.rotationWxyz = station.rotationWxyz;
+    data.rotation = rotationMatrix(station.rotationWxyz);
+    data.position = station.position;
+    for (int axis = 0; axis < 3; ++axis) data.translation[axis] = scan.origin[axis] + station.position[axis];
+    data.writePose = station.hasPose || data.translation != std::array<double, 3>{} ||
+                     data.rotationWxyz != std::array<double, 4>{1, 0, 0, 0};
+    data.rowCount = station.rowCount;
+    data.columnCount = station.columnCount;
+    data.indices.reserve(station.pointCount);
+    stations.push_back(std::move(data));
+  }
+  APO_CHECK_OP(points.stations.size(), ==, points.size());
+  for (std::uint32_t i = 0; i < points.size(); ++i) {
+    APO_CHECK_OP(points.stations[i], <, stations.size());
+    stations[points.stations[i]].indices.push_back(i);
   }
   return stations;
 }
@@ -187,8 +175,11 @@ struct OutField {
 
 std::string number(double value) { return fmt::format("{}", value); }
 
-OutField integerField(std::string name, const std::vector<std::int64_t>& values, std::int64_t minimum,
-                      std::int64_t maximum, std::optional<double> scale = std::nullopt) {
+// An Integer (or, with a scale, ScaledInteger) field of `count` values,
+// value(i) each, declared in [minimum, maximum].
+template <class Value>
+OutField integerField(std::string name, std::size_t count, std::int64_t minimum, std::int64_t maximum, Value value,
+                      std::optional<double> scale = std::nullopt) {
   OutField field;
   field.name = std::move(name);
   field.type = scale ? "ScaledInteger" : "Integer";
@@ -196,30 +187,27 @@ OutField integerField(std::string name, const std::vector<std::int64_t>& values,
   if (scale) field.attributes.emplace_back("scale", number(*scale));
   field.bits = e57::bitsForRange(minimum, maximum);
   BitWriter writer;
-  writer.reserve(values.size() / 8 * field.bits + 16);
-  for (const std::int64_t value : values)
-    writer.put(static_cast<std::uint64_t>(value) - static_cast<std::uint64_t>(minimum), field.bits);
+  writer.reserve(count / 8 * field.bits + 16);
+  for (std::size_t i = 0; i < count; ++i)
+    writer.put(static_cast<std::uint64_t>(value(i)) - static_cast<std::uint64_t>(minimum), field.bits);
   field.stream = writer.finish();
   return field;
 }
 
-OutField floatField(std::string name, const std::vector<float>& values, double minimum, double maximum) {
+// A single-precision Float field of `count` values, value(i) each.
+template <class Value>
+OutField floatField(std::string name, std::size_t count, double minimum, double maximum, Value value) {
   OutField field;
   field.name = std::move(name);
   field.type = "Float";
   field.attributes = {{"precision", "single"}, {"minimum", number(minimum)}, {"maximum", number(maximum)}};
   field.bits = 32;
-  field.stream.resize(values.size() * sizeof(float));
-  std::memcpy(field.stream.data(), values.data(), field.stream.size());  // little-endian machines
+  field.stream.resize(count * sizeof(float));
+  for (std::size_t i = 0; i < count; ++i) {
+    const float v = value(i);
+    std::memcpy(field.stream.data() + 4 * i, &v, 4);  // little-endian machines
+  }
   return field;
-}
-
-// The finite values' range ([0, 0] when there are none).
-std::array<double, 2> finiteRange(const std::vector<float>& values) {
-  double low = std::numeric_limits<double>::infinity(), high = -low;
-  for (const float v : values)
-    if (std::isfinite(v)) low = std::min<double>(low, v), high = std::max<double>(high, v);
-  return low <= high ? std::array<double, 2>{low, high} : std::array<double, 2>{0.0, 0.0};
 }
 
 // What a station's data3D says besides its fields.
@@ -227,97 +215,108 @@ struct StationSummary {
   std::array<std::array<double, 2>, 3> bounds{};  // of the written (quantised) coordinates
   std::optional<std::array<double, 2>> intensityLimits;
   std::optional<std::array<std::int64_t, 2>> rowRange, columnRange;
+  bool hasColor = false;
 };
 
+bool isFinite(const std::array<double, 3>& p) {
+  return std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]);
+}
+
 // A power of ten at most half a float's spacing at the largest coordinate.
-double coordinateScale(const std::vector<std::array<double, 3>>& positions) {
+double coordinateScale(const Scan& scan, const StationData& station) {
   double largest = 0.0;
-  for (const auto& p : positions)
-    for (const double v : p)
-      if (std::isfinite(v)) largest = std::max(largest, std::abs(v));
+  for (const std::uint32_t i : station.indices) {
+    const auto p = station.local(scan.points.positions[i]);
+    if (isFinite(p)) largest = std::max({largest, std::abs(p[0]), std::abs(p[1]), std::abs(p[2])});
+  }
   if (largest == 0.0) return 1e-3;
   return std::pow(10.0, std::floor(std::log10(largest * 0x1p-24)));
 }
 
-std::vector<OutField> stationFields(const Scan& scan, const StationData& station, StationSummary& summary) {
-  const PointSet& points = scan.points;
+// The coordinate fields (and the invalid state of non-finite positions).
+void addCoordinateFields(const Scan& scan, const StationData& station, StationSummary& summary,
+                         std::vector<OutField>& fields) {
   const std::size_t n = station.indices.size();
-  std::vector<OutField> fields;
-
-  // Coordinates: rounded to the scale; non-finite ones marked invalid.
-  const double scale = coordinateScale(station.positions);
-  std::array<std::vector<std::int64_t>, 3> raw;
-  std::vector<std::int64_t> invalid(n, 0);
-  bool anyInvalid = false;
+  const double scale = coordinateScale(scan, station);
+  // Non-finite positions are written at the lowest corner, marked invalid.
+  const auto rawAt = [&](std::size_t i) {
+    const auto p = station.local(scan.points.positions[station.indices[i]]);
+    if (!isFinite(p)) return std::optional<std::array<std::int64_t, 3>>();
+    return std::optional<std::array<std::int64_t, 3>>(
+        std::array<std::int64_t, 3>{std::llround(p[0] / scale), std::llround(p[1] / scale), std::llround(p[2] / scale)});
+  };
   std::array<std::int64_t, 3> low, high;
   low.fill(std::numeric_limits<std::int64_t>::max());
   high.fill(std::numeric_limits<std::int64_t>::min());
-  for (auto& axis : raw) axis.resize(n, 0);
+  bool anyInvalid = false;
   for (std::size_t i = 0; i < n; ++i) {
-    const auto& p = station.positions[i];
-    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) {
-      invalid[i] = 2;
-      anyInvalid = true;
-      continue;
-    }
+    const auto raw = rawAt(i);
+    anyInvalid |= !raw;
+    if (!raw) continue;
     for (int axis = 0; axis < 3; ++axis) {
-      raw[axis][i] = std::llround(p[axis] / scale);
-      low[axis] = std::min(low[axis], raw[axis][i]);
-      high[axis] = std::max(high[axis], raw[axis][i]);
+      low[axis] = std::min(low[axis], (*raw)[axis]);
+      high[axis] = std::max(high[axis], (*raw)[axis]);
     }
   }
+  const char* names[] = {"cartesianX", "cartesianY", "cartesianZ"};
   for (int axis = 0; axis < 3; ++axis) {
     if (low[axis] > high[axis]) low[axis] = high[axis] = 0;  // no finite point
-    for (std::size_t i = 0; i < n; ++i)
-      if (invalid[i] != 0) raw[axis][i] = low[axis];
     summary.bounds[axis] = {double(low[axis]) * scale, double(high[axis]) * scale};
+    fields.push_back(integerField(
+        names[axis], n, low[axis], high[axis],
+        [&](std::size_t i) {
+          const auto raw = rawAt(i);
+          return raw ? (*raw)[axis] : low[axis];
+        },
+        scale));
   }
-  const char* axisNames[] = {"cartesianX", "cartesianY", "cartesianZ"};
-  for (int axis = 0; axis < 3; ++axis) fields.push_back(integerField(axisNames[axis], raw[axis], low[axis], high[axis], scale));
-  if (anyInvalid) fields.push_back(integerField("cartesianInvalidState", invalid, 0, 2));
+  if (anyInvalid)
+    fields.push_back(integerField("cartesianInvalidState", n, 0, 2, [&](std::size_t i) { return rawAt(i) ? 0 : 2; }));
+}
 
+std::vector<OutField> stationFields(const Scan& scan, const StationData& station, StationSummary& summary) {
+  const PointSet& points = scan.points;
+  const std::vector<std::uint32_t>& indices = station.indices;
+  const std::size_t n = indices.size();
+  std::vector<OutField> fields;
+  addCoordinateFields(scan, station, summary, fields);
   if (points.hasNormals()) {
     const char* names[] = {"nor:normalX", "nor:normalY", "nor:normalZ"};
-    for (int axis = 0; axis < 3; ++axis) {
-      std::vector<float> values(n);
-      for (std::size_t i = 0; i < n; ++i) values[i] = station.normals[i][axis];
-      fields.push_back(floatField(names[axis], values, -1.0, 1.0));
-    }
+    for (int axis = 0; axis < 3; ++axis)
+      fields.push_back(floatField(names[axis], n, -1.0, 1.0, [&](std::size_t i) {
+        const Vec3f& normal = points.normals[indices[i]];
+        return static_cast<float>(station.unrotated(normal.x(), normal.y(), normal.z())[axis]);
+      }));
   }
   if (points.hasIntensities()) {
-    std::vector<float> values(n);
-    for (std::size_t i = 0; i < n; ++i) values[i] = points.intensities[station.indices[i]];
-    const auto range = finiteRange(values);
+    double low = std::numeric_limits<double>::infinity(), high = -low;
+    for (const std::uint32_t i : indices)
+      if (std::isfinite(points.intensities[i])) low = std::min<double>(low, points.intensities[i]), high = std::max<double>(high, points.intensities[i]);
+    if (low > high) low = high = 0.0;
     // Readers map intensities by their limits: [0, 1] keeps values already there.
-    summary.intensityLimits = range[0] >= 0.0 && range[1] <= 1.0 ? std::array<double, 2>{0.0, 1.0} : range;
-    fields.push_back(floatField("intensity", values, (*summary.intensityLimits)[0], (*summary.intensityLimits)[1]));
+    summary.intensityLimits = low >= 0.0 && high <= 1.0 ? std::array<double, 2>{0.0, 1.0} : std::array<double, 2>{low, high};
+    fields.push_back(floatField("intensity", n, (*summary.intensityLimits)[0], (*summary.intensityLimits)[1],
+                                [&](std::size_t i) { return points.intensities[indices[i]]; }));
   }
   if (points.hasColors()) {
-    const char* names[] = {"colorRed", "colorGreen", "colorBlue"};
-    for (int channel = 0; channel < 3; ++channel) {
-      std::vector<std::int64_t> values(n);
-      for (std::size_t i = 0; i < n; ++i) {
-        const Rgb8& c = points.colors[station.indices[i]];
-        values[i] = channel == 0 ? c.r : channel == 1 ? c.g : c.b;
-      }
-      fields.push_back(integerField(names[channel], values, 0, 255));
-    }
+    summary.hasColor = true;
+    fields.push_back(integerField("colorRed", n, 0, 255, [&](std::size_t i) { return points.colors[indices[i]].r; }));
+    fields.push_back(integerField("colorGreen", n, 0, 255, [&](std::size_t i) { return points.colors[indices[i]].g; }));
+    fields.push_back(integerField("colorBlue", n, 0, 255, [&](std::size_t i) { return points.colors[indices[i]].b; }));
   }
   if (points.hasGridIndices()) {
-    std::vector<std::int64_t> rows(n), columns(n);
     std::int64_t rowMaximum = std::int64_t{station.rowCount} - 1, columnMaximum = std::int64_t{station.columnCount} - 1;
-    for (std::size_t i = 0; i < n; ++i) {
-      rows[i] = points.rows[station.indices[i]];
-      columns[i] = points.columns[station.indices[i]];
-      rowMaximum = std::max(rowMaximum, rows[i]);
-      columnMaximum = std::max(columnMaximum, columns[i]);
+    for (const std::uint32_t i : indices) {
+      rowMaximum = std::max<std::int64_t>(rowMaximum, points.rows[i]);
+      columnMaximum = std::max<std::int64_t>(columnMaximum, points.columns[i]);
     }
     rowMaximum = std::max<std::int64_t>(rowMaximum, 0);
     columnMaximum = std::max<std::int64_t>(columnMaximum, 0);
     summary.rowRange = std::array<std::int64_t, 2>{0, rowMaximum};
     summary.columnRange = std::array<std::int64_t, 2>{0, columnMaximum};
-    fields.push_back(integerField("rowIndex", rows, 0, rowMaximum));
-    fields.push_back(integerField("columnIndex", columns, 0, columnMaximum));
+    fields.push_back(integerField("rowIndex", n, 0, rowMaximum, [&](std::size_t i) { return points.rows[indices[i]]; }));
+    fields.push_back(
+        integerField("columnIndex", n, 0, columnMaximum, [&](std::size_t i) { return points.columns[indices[i]]; }));
   }
   return fields;
 }
@@ -331,9 +330,10 @@ void putLittle(std::string& out, T value) {
   out.append(bytes, sizeof(T));
 }
 
-// The compressed vector section of `records` records of `fields`, to start
-// at logical offset `start`.
-std::string encodeSection(const std::vector<OutField>& fields, std::uint64_t records, std::uint64_t start) {
+// Appends to `logical` the compressed vector section of `records` records
+// of `fields`.
+void appendSection(const std::vector<OutField>& fields, std::uint64_t records, std::string& logical) {
+  const std::uint64_t start = logical.size();
   const std::uint64_t packetHeader = e57::kDataPacketHeaderSize + 2 * fields.size();
   int bitsPerRecord = 0;
   for (const OutField& field : fields) bitsPerRecord += field.bits;
@@ -342,10 +342,16 @@ std::string encodeSection(const std::vector<OutField>& fields, std::uint64_t rec
   const std::uint64_t room = e57::kMaxPacketSize - packetHeader - 3;
   const std::uint64_t perPacket = std::max<std::uint64_t>(8, room * 8 / std::max(bitsPerRecord, 1) / 8 * 8);
 
-  std::string packets;
+  // The section header, its length set once the packets are written.
+  logical.push_back(static_cast<char>(e57::kCompressedVectorSectionId));
+  logical.append(7, '\0');
+  putLittle<std::uint64_t>(logical, 0);
+  putLittle<std::uint64_t>(logical, e57::physicalFromLogical(start + e57::kSectionHeaderSize));
+  putLittle<std::uint64_t>(logical, 0);  // no index packets
+  std::string packet;
   for (std::uint64_t first = 0; first < records; first += perPacket) {
     const std::uint64_t last = std::min(records, first + perPacket);
-    std::string packet;
+    packet.clear();
     packet.push_back(static_cast<char>(e57::kDataPacket));
     packet.push_back(0);  // flags
     putLittle<std::uint16_t>(packet, 0);  // length - 1, set below
@@ -360,16 +366,10 @@ std::string encodeSection(const std::vector<OutField>& fields, std::uint64_t rec
     packet.resize((packet.size() + 3) / 4 * 4, '\0');
     const auto lengthMinusOne = static_cast<std::uint16_t>(packet.size() - 1);
     std::memcpy(packet.data() + 2, &lengthMinusOne, 2);
-    packets += packet;
+    logical += packet;
   }
-
-  std::string section;
-  section.push_back(static_cast<char>(e57::kCompressedVectorSectionId));
-  section.append(7, '\0');
-  putLittle<std::uint64_t>(section, e57::kSectionHeaderSize + packets.size());
-  putLittle<std::uint64_t>(section, e57::physicalFromLogical(start + e57::kSectionHeaderSize));
-  putLittle<std::uint64_t>(section, 0);  // no index packets
-  return section + packets;
+  const std::uint64_t length = logical.size() - start;
+  std::memcpy(logical.data() + start + 8, &length, 8);
 }
 
 // ---------------------------------------------------------------- XML
@@ -437,9 +437,7 @@ void addStation(pugi::xml_node data3D, const WrittenStation& written, std::size_
     addFloat(limits, "intensityMinimum", (*summary.intensityLimits)[0]);
     addFloat(limits, "intensityMaximum", (*summary.intensityLimits)[1]);
   }
-  const bool hasColor = std::any_of(written.fields.begin(), written.fields.end(),
-                                    [](const OutField& field) { return field.name == "colorRed"; });
-  if (hasColor) {
+  if (summary.hasColor) {
     pugi::xml_node limits = addElement(scan, "colorLimits", "Structure");
     for (const char* channel : {"Red", "Green", "Blue"}) {
       addInteger(limits, fmt::format("color{}Minimum", channel).c_str(), 0);
@@ -529,7 +527,10 @@ std::string encodeE57(const Scan& scan) {
     entry.records = station.indices.size();
     entry.fields = stationFields(scan, station, entry.summary);
     entry.fileOffset = e57::physicalFromLogical(logical.size());
-    logical += encodeSection(entry.fields, entry.records, logical.size());
+    std::size_t streamBytes = 0;
+    for (const OutField& field : entry.fields) streamBytes += field.stream.size();
+    logical.reserve(logical.size() + streamBytes + streamBytes / 64 + e57::kMaxPacketSize);  // with packet headers
+    appendSection(entry.fields, entry.records, logical);
     for (OutField& field : entry.fields) std::string().swap(field.stream);  // written: free it
     written.push_back(std::move(entry));
   }
