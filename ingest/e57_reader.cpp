@@ -950,6 +950,25 @@ void parseXml(const PagedFile& file, const FileHeader& header, std::string& text
          result.description(), result.offset);
 }
 
+std::string scansWord(std::size_t count) { return fmt::format("{} scan{}", count, count == 1 ? "" : "s"); }
+
+// Each scan's count was checked against its own section; scans that share
+// one (or claim overlapping ones) could still add up to far more points
+// than the file holds, so their sum is held to the file too: at least one
+// bit a record.
+void checkTotalRecords(const PagedFile& file, const std::vector<ScanHeader>& scans) {
+  std::uint64_t claimedBytes = 0;
+  for (const ScanHeader& scan : scans) {
+    std::uint64_t bitsPerRecord = 0;
+    for (const Field& field : scan.fields) bitsPerRecord += field.bits;
+    // Within one section's bits each (checkRecordCount): no overflow.
+    claimedBytes += (scan.recordCount / 8) * std::max<std::uint64_t>(bitsPerRecord, 1);
+    if (claimedBytes > file.logicalSize())
+      fail("XML element /data3D: the scans' records up to {} claim more bytes than the file's {}", scan.path,
+           file.logicalSize());
+  }
+}
+
 Scan readScans(std::string_view bytes) {
   const FileHeader header = parseFileHeader(bytes);
   e57::checkPages(bytes);
@@ -974,6 +993,7 @@ Scan readScans(std::string_view bytes) {
     plans.push_back(planScan(scans.back()));
     sections.push_back(locateSection(file, scans.back()));
   }
+  checkTotalRecords(file, scans);
   // First pass: the frame, and how many points there are.
   LocalFrame frame;
   std::vector<ScanTally> tallies;
@@ -983,7 +1003,7 @@ Scan readScans(std::string_view bytes) {
     valid += tallies.back().valid;
     records += scans[s].recordCount;
   }
-  if (valid == 0) fail("no points: the file's {} scans hold no valid records ({} in all)", scans.size(), records);
+  if (valid == 0) fail("no points: {} records in {}, none valid", records, scansWord(scans.size()));
   frame.fixInto(out);
   // Second pass: the points.
   out.points.positions.reserve(valid);
@@ -1003,8 +1023,8 @@ Scan readScans(std::string_view bytes) {
   noteUnreadRoot(root, out.readNotes);
   std::vector<std::uint64_t> counts;
   for (const ScanHeader& scan : scans) counts.push_back(scan.recordCount);
-  out.readNotes.insert(out.readNotes.begin(), fmt::format("E57 {}.{}: {} scans ({} records)", header.major,
-                                                          header.minor, scans.size(), fmt::join(counts, ", ")));
+  out.readNotes.insert(out.readNotes.begin(), fmt::format("E57 {}.{}: {} ({} records)", header.major, header.minor,
+                                                          scansWord(scans.size()), fmt::join(counts, ", ")));
   return out;
 }
 

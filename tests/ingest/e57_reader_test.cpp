@@ -398,6 +398,16 @@ TEST(E57Reader, RefusesHugeRecordCountsBeforeAllocating) {
               AllOf(HasSubstr("byte 48"), HasSubstr("/data3D/0/points claims 100000000000 records")));
 }
 
+TEST(E57Reader, RefusesScansThatShareASectionBeyondTheFilesSize) {
+  const std::string bytes = realFile("bunnyInt32.e57");
+  const std::string xml = xmlOf(bytes);
+  const std::size_t start = xml.find("<vectorChild"), end = xml.find("</vectorChild>") + 14;
+  std::string copies;
+  for (int i = 0; i < 30; ++i) copies += xml.substr(start, end - start);
+  EXPECT_THAT(e57Failure(withXml(bytes, xml.substr(0, start) + copies + xml.substr(end))),
+              HasSubstr("XML element /data3D: the scans' records up to /data3D/1 claim more bytes than the file's"));
+}
+
 TEST(E57Reader, ErrorsNameTheXmlElement) {
   const std::string bytes = realFile("A_B.e57");
   const std::string xml = xmlOf(bytes);
