@@ -18,6 +18,7 @@
 
 #include <array>
 #include <chrono>
+#include <ctime>
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
@@ -566,12 +567,18 @@ TEST(E57Speed, DISABLED_TwentyMillionPoints) {
   auto start = std::chrono::steady_clock::now();
   const std::string bytes = readers::encodeE57(scan);
   const double encodeSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  start = std::chrono::steady_clock::now();
-  const Scan read = readers::readE57(bytes);
-  const double readSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  ASSERT_EQ(read.points.size(), count);
-  std::printf("E57 of %zu scaled-integer points, %.1f MB: encode %.2f s, read %.2f s = %.1f million points/s\n", count,
-              bytes.size() / 1e6, encodeSeconds, readSeconds, count / readSeconds / 1e6);
+  std::printf("E57 of %zu scaled-integer points, %.1f MB: encode %.2f s\n", count, bytes.size() / 1e6, encodeSeconds);
+  // Three reads: on a shared machine the best is the one least disturbed.
+  for (int round = 0; round < 3; ++round) {
+    start = std::chrono::steady_clock::now();
+    const std::clock_t cpuStart = std::clock();
+    const Scan read = readers::readE57(bytes);
+    const double cpuSeconds = double(std::clock() - cpuStart) / CLOCKS_PER_SEC;
+    const double readSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    ASSERT_EQ(read.points.size(), count);
+    std::printf("read %.2f s wall (%.2f s CPU) = %.1f million points/s\n", readSeconds, cpuSeconds,
+                count / readSeconds / 1e6);
+  }
 }
 
 }  // namespace
