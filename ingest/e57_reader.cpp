@@ -288,8 +288,10 @@ struct ScanHeader {
   std::optional<std::array<double, 2>> intensityLimits;
   std::array<std::optional<std::array<double, 2>>, 3> colorLimits;
   std::optional<std::array<double, 2>> rowBounds, columnBounds;
-  // The scan's own frame: x, y, z (or range, elevation) minimum and maximum.
-  std::optional<std::array<std::array<double, 2>, 3>> coordinateBounds;
+  // In the scan's own frame: x, y, z minimum and maximum; the spherical
+  // range's and elevation's (the azimuth's wraps around: not checked).
+  std::optional<std::array<std::array<double, 2>, 3>> cartesianBounds;
+  std::optional<std::array<double, 2>> rangeBounds, elevationBounds;
   std::vector<std::string> unread;  // its children apo does not read
 };
 
@@ -381,7 +383,11 @@ ScanHeader parseScanHeader(const Node& node, std::vector<std::string>& notes) {
   if (const Node bounds = node.child("cartesianBounds")) {
     const auto x = rangeOf(bounds, "xMinimum", "xMaximum"), y = rangeOf(bounds, "yMinimum", "yMaximum"),
                z = rangeOf(bounds, "zMinimum", "zMaximum");
-    if (x && y && z) scan.coordinateBounds = std::array<std::array<double, 2>, 3>{*x, *y, *z};
+    if (x && y && z) scan.cartesianBounds = std::array<std::array<double, 2>, 3>{*x, *y, *z};
+  }
+  if (const Node bounds = node.child("sphericalBounds")) {
+    scan.rangeBounds = rangeOf(bounds, "rangeMinimum", "rangeMaximum");
+    scan.elevationBounds = rangeOf(bounds, "elevationMinimum", "elevationMaximum");
   }
   for (const Node& child : childElements(node)) {
     const std::string_view name = child.xml.name();
@@ -691,11 +697,19 @@ std::array<double, 3> posed(const Pose& pose, const std::array<double, 3>& p) {
           r[2][0] * p[0] + r[2][1] * p[1] + r[2][2] * p[2] + pose.translation[2]};
 }
 
-bool outside(const std::array<std::array<double, 2>, 3>& box, const std::array<double, 3>& p) {
+// Outside [minimum, maximum] by more than the rounding of their digits.
+bool outside(const std::array<double, 2>& range, double value) {
+  return !(value >= range[0] - 1e-6 * (1 + std::abs(range[0])) && value <= range[1] + 1e-6 * (1 + std::abs(range[1])));
+}
+
+// A record outside the bounds its scan declares, in the scan's own frame.
+bool outsideDeclaredBounds(const ScanHeader& scan, bool cartesian, double a, double c,
+                           const std::array<double, 3>& local) {
   bool out = false;
-  for (int axis = 0; axis < 3; ++axis)
-    out |= !(p[axis] >= box[axis][0] - 1e-6 * (1 + std::abs(box[axis][0])) &&
-             p[axis] <= box[axis][1] + 1e-6 * (1 + std::abs(box[axis][1])));
+  if (scan.cartesianBounds)
+    for (int axis = 0; axis < 3; ++axis) out |= outside((*scan.cartesianBounds)[axis], local[axis]);
+  if (!cartesian && scan.rangeBounds) out |= outside(*scan.rangeBounds, a);
+  if (!cartesian && scan.elevationBounds) out |= outside(*scan.elevationBounds, c);
   return out;
 }
 
@@ -748,8 +762,8 @@ ScanTally measureScan(const PagedFile& file, const ScanHeader& scan, const Secti
         continue;
       }
       const auto local = inScanFrame(plan.cartesian, a[i], b[i], c[i]);
-      // cartesianBounds are in the scan's own frame: checked before the pose.
-      if (scan.coordinateBounds) tally.outsideBounds += outside(*scan.coordinateBounds, local);
+      // Declared bounds are in the scan's own frame: checked before the pose.
+      tally.outsideBounds += outsideDeclaredBounds(scan, plan.cartesian, a[i], c[i], local);
       const auto world = posed(scan.pose, local);
       frame.include(world[0], world[1], world[2]);
       ++tally.valid;
@@ -869,7 +883,7 @@ void noteScan(const ScanHeader& scan, const ScanPlan& plan, const ScanTally& tal
                                 tally.directionOnly + tally.invalid, scan.recordCount, tally.directionOnly,
                                 tally.invalid));
   if (tally.outsideBounds > 0)
-    notes.push_back(fmt::format("{}: {} points lie outside its declared cartesianBounds (in its own frame)", label,
+    notes.push_back(fmt::format("{}: {} points lie outside its declared cartesianBounds or sphericalBounds (in its own frame)", label,
                                 tally.outsideBounds));
   std::vector<std::string> skipped;
   for (const Field& field : scan.fields)

@@ -354,6 +354,21 @@ TEST(E57Reader, NamesWhatItDoesNotRead) {
   EXPECT_THAT(bunny.readNotes, Contains(AllOf(HasSubstr("elements not read"), HasSubstr("temperature"))));
 }
 
+TEST(E57Reader, NotesPointsOutsideTheirDeclaredBounds) {
+  // pye57's file gives its bounds after the pose: all 4 points are outside
+  // them in the scan's own frame.
+  EXPECT_THAT(readers::readE57(realFile("translationWithoutRotation.e57")).readNotes,
+              Contains(HasSubstr("/data3D/0 (Scan 0): 4 points lie outside its declared cartesianBounds")));
+  // A spherical scan of ranges up to 1, declared up to 0.5.
+  const std::string bytes = realFile("tiny_spherical.e57");
+  const std::string bounds =
+      "<sphericalBounds type=\"Structure\"><rangeMinimum type=\"Float\"/><rangeMaximum "
+      "type=\"Float\">0.5</rangeMaximum></sphericalBounds><points ";
+  const Scan scan = readers::readE57(withXml(bytes, replaced(xmlOf(bytes), "<points ", bounds)));
+  EXPECT_THAT(scan.readNotes, Contains(AllOf(HasSubstr("points lie outside its declared"), HasSubstr("sphericalBounds"))));
+  for (const Vec3f& p : scan.points.positions) EXPECT_GT(p.norm(), 0.5f);
+}
+
 TEST(E57Reader, RefusesTheBrokenRealFilesSayingWhy) {
   EXPECT_THAT(e57Failure(realFile("bad-crc.e57")), AllOf(HasSubstr("byte 0: page 0's CRC-32C"), HasSubstr("does not match")));
   EXPECT_THAT(e57Failure(realFile("InvalidCVHeader.e57")),
