@@ -67,9 +67,10 @@ void checkPages(std::string_view file) {
   for (std::uint64_t page = 0; page < file.size() / kPageSize; ++page) {
     const std::uint32_t stored = storedCrc(file, page), computed = pageCrc(file, page);
     if (stored != computed)
-      fail("byte {}: page {}'s CRC-32C {:#010x} (stored at byte {}) does not match its data's {:#010x}: the file is "
-           "damaged",
-           page * kPageSize, page, stored, page * kPageSize + kPageDataSize, computed);
+      fail(
+          "byte {}: page {}'s CRC-32C {:#010x} (stored at byte {}) does not match its data's {:#010x}: the file is "
+          "damaged",
+          page * kPageSize, page, stored, page * kPageSize + kPageDataSize, computed);
   }
 }
 

@@ -57,7 +57,8 @@ T readLittle(std::string_view bytes, std::size_t at) {
 }
 
 FileHeader parseFileHeader(std::string_view file) {
-  if (file.size() < 8 || file.substr(0, 8) != e57::kSignature) fail("byte 0: not an E57 file (no 'ASTM-E57' signature)");
+  if (file.size() < 8 || file.substr(0, 8) != e57::kSignature)
+    fail("byte 0: not an E57 file (no 'ASTM-E57' signature)");
   if (file.size() < e57::kPageSize)
     fail("byte {}: the file ends inside its first {}-byte page (truncated?)", file.size(), e57::kPageSize);
   FileHeader header;
@@ -97,7 +98,8 @@ struct Node {
 std::int64_t integerOrFail(std::string_view token, std::int64_t fallback, const std::string& where) {
   if (token.empty()) return fallback;
   std::int64_t value = 0;
-  if (!parse::parseInteger(token, value)) fail("XML element {}: expected an integer, got {}", where, parse::quoted(token));
+  if (!parse::parseInteger(token, value))
+    fail("XML element {}: expected an integer, got {}", where, parse::quoted(token));
   return value;
 }
 
@@ -237,7 +239,8 @@ Field fieldOf(const Node& node, const std::string& name) {
     field.codec = precision == "single" ? Codec::Float32 : Codec::Float64;
     field.bits = precision == "single" ? 32 : 64;
     if (node.xml.attribute("minimum") && node.xml.attribute("maximum"))
-      field.declared = std::array<double, 2>{doubleAttribute(node, "minimum", 0.0), doubleAttribute(node, "maximum", 0.0)};
+      field.declared =
+          std::array<double, 2>{doubleAttribute(node, "minimum", 0.0), doubleAttribute(node, "maximum", 0.0)};
     return field;
   }
   fail("XML element {}: a {} field in a prototype: apo reads Integer, ScaledInteger and Float fields", node.path,
@@ -345,9 +348,9 @@ std::uint64_t countAttribute(const Node& node, const char* name) {
   return static_cast<std::uint64_t>(value);
 }
 
-constexpr const char* kReadScanChildren[] = {"guid",         "name",           "description",     "points",
-                                             "pose",         "cartesianBounds", "sphericalBounds", "intensityLimits",
-                                             "colorLimits", "indexBounds"};
+constexpr const char* kReadScanChildren[] = {
+    "guid", "name", "description", "points", "pose", "cartesianBounds", "sphericalBounds", "intensityLimits",
+    "colorLimits", "indexBounds"};
 
 ScanHeader parseScanHeader(const Node& node, std::vector<std::string>& notes) {
   ScanHeader scan;
@@ -523,8 +526,14 @@ void decodeValues(const Field& field, StreamBuffer& stream, std::size_t count, d
 class RecordReader {
  public:
   RecordReader(const PagedFile& file, const ScanHeader& scan, const Section& section, const std::vector<bool>& decoded)
-      : file_(file), scan_(scan), at_(section.firstPacket), end_(section.end), decoded_(decoded),
-        streams_(scan.fields.size()), values_(scan.fields.size()), lengths_(scan.fields.size()) {
+      : file_(file),
+        scan_(scan),
+        at_(section.firstPacket),
+        end_(section.end),
+        decoded_(decoded),
+        streams_(scan.fields.size()),
+        values_(scan.fields.size()),
+        lengths_(scan.fields.size()) {
     for (std::size_t i = 0; i < decoded_.size(); ++i)
       if (decoded_[i]) values_[i].resize(kBatch);
   }
@@ -533,7 +542,8 @@ class RecordReader {
   std::size_t next() {
     if (done_ == scan_.recordCount) return 0;
     while (available() == 0) readPacket();
-    const auto count = static_cast<std::size_t>(std::min({std::uint64_t{kBatch}, available(), scan_.recordCount - done_}));
+    const auto count =
+        static_cast<std::size_t>(std::min({std::uint64_t{kBatch}, available(), scan_.recordCount - done_}));
     for (std::size_t i = 0; i < streams_.size(); ++i) {
       if (decoded_[i])
         decodeValues(scan_.fields[i], streams_[i], count, values_[i].data());
@@ -593,7 +603,8 @@ class RecordReader {
     lengthBytes_.clear();
     file_.append(at_ + e57::kDataPacketHeaderSize, 2 * streams_.size(), lengthBytes_, "bytestream lengths");
     std::uint64_t total = 0;
-    for (std::size_t i = 0; i < lengths_.size(); ++i) total += lengths_[i] = readLittle<std::uint16_t>(lengthBytes_, 2 * i);
+    for (std::size_t i = 0; i < lengths_.size(); ++i)
+      total += lengths_[i] = readLittle<std::uint16_t>(lengthBytes_, 2 * i);
     if (table + total > length)
       fail("byte {}: data packet's bytestreams ({} bytes) overflow its length {}", physical, total, length);
     std::uint64_t streamAt = at_ + table;
@@ -659,7 +670,8 @@ ScanPlan planScan(const ScanHeader& scan) {
   for (const Role role : {Role::Row, Role::Column})
     if (index.has(role)) {
       const Field& field = scan.fields[index[role]];
-      if (field.codec != Codec::Integer || field.minimum < 0 || field.maximum > std::numeric_limits<std::uint32_t>::max())
+      if (field.codec != Codec::Integer || field.minimum < 0 ||
+          field.maximum > std::numeric_limits<std::uint32_t>::max())
         fail("XML element {}: row and column indices are Integers in [0, 2^32)", field.path);
     }
   plan.used.assign(plan.coordinates.begin(), plan.coordinates.end());
@@ -722,7 +734,8 @@ struct LinearMap {
 
 // The limits a scan declares for a field: its own element (intensityLimits,
 // colorLimits) first, else the field's declared range.
-std::optional<std::array<double, 2>> limitsOf(const std::optional<std::array<double, 2>>& declared, const Field& field) {
+std::optional<std::array<double, 2>> limitsOf(const std::optional<std::array<double, 2>>& declared,
+                                              const Field& field) {
   if (declared) return declared;
   return field.declared;
 }
@@ -789,7 +802,8 @@ void decodeScan(const PagedFile& file, const ScanHeader& scan, const Section& se
   const std::array<Role, 3> colorRoles = {Role::Red, Role::Green, Role::Blue};
   std::array<LinearMap, 3> colorMaps;
   if (plan.hasColor)
-    for (int c = 0; c < 3; ++c) colorMaps[c] = mapOnto(limitsOf(scan.colorLimits[c], scan.fields[index[colorRoles[c]]]), 255.0);
+    for (int c = 0; c < 3; ++c)
+      colorMaps[c] = mapOnto(limitsOf(scan.colorLimits[c], scan.fields[index[colorRoles[c]]]), 255.0);
   const std::string label = fmt::format("{} ({})", scan.path, scan.name);
   if (plan.hasIntensity)
     out.readNotes.push_back(fmt::format("{}: intensities mapped to [0, 1] from their limits {}", label,
@@ -831,7 +845,8 @@ void decodeScan(const PagedFile& file, const ScanHeader& scan, const Section& se
       if (plan.hasColor) {
         std::array<std::uint8_t, 3> rgb;
         for (int k = 0; k < 3; ++k)
-          rgb[k] = static_cast<std::uint8_t>(std::clamp(std::round(colorMaps[k](values(colorRoles[k])[i])), 0.0, 255.0));
+          rgb[k] =
+              static_cast<std::uint8_t>(std::clamp(std::round(colorMaps[k](values(colorRoles[k])[i])), 0.0, 255.0));
         points.colors.push_back({rgb[0], rgb[1], rgb[2]});
       }
       if (plan.hasGrid) {
@@ -883,8 +898,9 @@ void noteScan(const ScanHeader& scan, const ScanPlan& plan, const ScanTally& tal
                                 tally.directionOnly + tally.invalid, scan.recordCount, tally.directionOnly,
                                 tally.invalid));
   if (tally.outsideBounds > 0)
-    notes.push_back(fmt::format("{}: {} points lie outside its declared cartesianBounds or sphericalBounds (in its own frame)", label,
-                                tally.outsideBounds));
+    notes.push_back(
+        fmt::format("{}: {} points lie outside its declared cartesianBounds or sphericalBounds (in its own frame)",
+                    label, tally.outsideBounds));
   std::vector<std::string> skipped;
   for (const Field& field : scan.fields)
     if (std::find(plan.used.begin(), plan.used.end(), field.role) == plan.used.end()) skipped.push_back(field.name);
@@ -924,9 +940,9 @@ void fillMissingAttributes(const std::vector<ScanHeader>& scans, const std::vect
 
 // ---------------------------------------------------------------- root
 
-constexpr const char* kReadRootChildren[] = {"formatName", "guid",           "versionMajor", "versionMinor",
-                                             "e57LibraryVersion", "creationDateTime", "coordinateMetadata",
-                                             "data3D",     "images2D"};
+constexpr const char* kReadRootChildren[] = {
+    "formatName", "guid", "versionMajor", "versionMinor", "e57LibraryVersion", "creationDateTime",
+    "coordinateMetadata", "data3D", "images2D"};
 
 void noteUnreadRoot(const Node& root, std::vector<std::string>& notes) {
   const std::string metadata = stringOf(root.child("coordinateMetadata"));
@@ -956,8 +972,8 @@ void noteUnreadRoot(const Node& root, std::vector<std::string>& notes) {
 void parseXml(const PagedFile& file, const FileHeader& header, std::string& text, pugi::xml_document& document) {
   const std::uint64_t start = file.logicalFromPhysical(header.xmlPhysicalOffset, "the XML section (header byte 24)");
   file.append(start, header.xmlLength, text, "the XML section");
-  const pugi::xml_parse_result result = document.load_buffer_inplace(text.data(), text.size(), pugi::parse_default,
-                                                                     pugi::encoding_utf8);
+  const pugi::xml_parse_result result =
+      document.load_buffer_inplace(text.data(), text.size(), pugi::parse_default, pugi::encoding_utf8);
   if (!result)
     fail("byte {}: the XML section is not well-formed: {} (its byte {})",
          e57::physicalFromLogical(start + static_cast<std::uint64_t>(std::max<std::ptrdiff_t>(result.offset, 0))),
@@ -996,7 +1012,8 @@ Scan readScans(std::string_view bytes) {
   if (!data3D) fail("XML element /data3D: missing: the file holds no scans");
   const std::vector<Node> nodes = childElements(data3D);
   if (nodes.size() > std::numeric_limits<std::uint16_t>::max())
-    fail("XML element /data3D: {} scans: apo reads at most {}", nodes.size(), std::numeric_limits<std::uint16_t>::max());
+    fail("XML element /data3D: {} scans: apo reads at most {}", nodes.size(),
+         std::numeric_limits<std::uint16_t>::max());
 
   Scan out;
   std::vector<ScanHeader> scans;

@@ -111,7 +111,7 @@ struct StationData {
   std::array<double, 3> translation = {0, 0, 0};  // in the file's frame (origin included)
   Vec3f position = Vec3f::Zero();                 // in the scan's local frame
   Matrix3 rotation = rotationMatrix({1, 0, 0, 0});
-  std::vector<std::uint32_t> indices;             // into the scan's points
+  std::vector<std::uint32_t> indices;  // into the scan's points
   std::uint32_t rowCount = 0, columnCount = 0;
 
   // R^T v: a direction into the station's frame.
@@ -242,8 +242,8 @@ void addCoordinateFields(const Scan& scan, const StationData& station, StationSu
   const auto rawAt = [&](std::size_t i) {
     const auto p = station.local(scan.points.positions[station.indices[i]]);
     if (!isFinite(p)) return std::optional<std::array<std::int64_t, 3>>();
-    return std::optional<std::array<std::int64_t, 3>>(
-        std::array<std::int64_t, 3>{std::llround(p[0] / scale), std::llround(p[1] / scale), std::llround(p[2] / scale)});
+    return std::optional<std::array<std::int64_t, 3>>(std::array<std::int64_t, 3>{
+        std::llround(p[0] / scale), std::llround(p[1] / scale), std::llround(p[2] / scale)});
   };
   std::array<std::int64_t, 3> low, high;
   low.fill(std::numeric_limits<std::int64_t>::max());
@@ -290,11 +290,15 @@ std::vector<OutField> stationFields(const Scan& scan, const StationData& station
   }
   if (points.hasIntensities()) {
     double low = std::numeric_limits<double>::infinity(), high = -low;
-    for (const std::uint32_t i : indices)
-      if (std::isfinite(points.intensities[i])) low = std::min<double>(low, points.intensities[i]), high = std::max<double>(high, points.intensities[i]);
+    for (const std::uint32_t i : indices) {
+      if (!std::isfinite(points.intensities[i])) continue;
+      low = std::min<double>(low, points.intensities[i]);
+      high = std::max<double>(high, points.intensities[i]);
+    }
     if (low > high) low = high = 0.0;
     // Readers map intensities by their limits: [0, 1] keeps values already there.
-    summary.intensityLimits = low >= 0.0 && high <= 1.0 ? std::array<double, 2>{0.0, 1.0} : std::array<double, 2>{low, high};
+    summary.intensityLimits =
+        low >= 0.0 && high <= 1.0 ? std::array<double, 2>{0.0, 1.0} : std::array<double, 2>{low, high};
     fields.push_back(floatField("intensity", n, (*summary.intensityLimits)[0], (*summary.intensityLimits)[1],
                                 [&](std::size_t i) { return points.intensities[indices[i]]; }));
   }
@@ -314,7 +318,8 @@ std::vector<OutField> stationFields(const Scan& scan, const StationData& station
     columnMaximum = std::max<std::int64_t>(columnMaximum, 0);
     summary.rowRange = std::array<std::int64_t, 2>{0, rowMaximum};
     summary.columnRange = std::array<std::int64_t, 2>{0, columnMaximum};
-    fields.push_back(integerField("rowIndex", n, 0, rowMaximum, [&](std::size_t i) { return points.rows[indices[i]]; }));
+    fields.push_back(
+        integerField("rowIndex", n, 0, rowMaximum, [&](std::size_t i) { return points.rows[indices[i]]; }));
     fields.push_back(
         integerField("columnIndex", n, 0, columnMaximum, [&](std::size_t i) { return points.columns[indices[i]]; }));
   }
@@ -470,8 +475,9 @@ std::string encodeXml(const std::vector<WrittenStation>& stations, bool hasNorma
   root.append_attribute("xmlns") = e57::kNamespace;
   if (hasNormals) root.append_attribute("xmlns:nor") = "http://www.libe57.org/E57_NOR_surface_normals.txt";
   addString(root, "formatName", "ASTM E57 3D Imaging Data File");
-  addString(root, "guid", guidOf({"apo file", std::to_string(stations.size()),
-                                  stations.empty() ? "" : stations.front().station->name}));
+  addString(
+      root, "guid",
+      guidOf({"apo file", std::to_string(stations.size()), stations.empty() ? "" : stations.front().station->name}));
   addInteger(root, "versionMajor", 1);
   addInteger(root, "versionMinor", 0);
   addString(root, "e57LibraryVersion", "apo");

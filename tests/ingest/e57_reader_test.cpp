@@ -212,7 +212,8 @@ TEST(E57Crc, TableDrivenEqualsBitwiseAtEveryLengthAndAlignment) {
 }
 
 TEST(E57Crc, TheRealFilesPagesCarryTheirCrcs) {
-  for (const char* name : {"A_B.e57", "bunnyInt32.e57", "read_error.e57"}) EXPECT_TRUE(pagesHaveTheirCrcs(realFile(name))) << name;
+  for (const char* name : {"A_B.e57", "bunnyInt32.e57", "read_error.e57"})
+    EXPECT_TRUE(pagesHaveTheirCrcs(realFile(name))) << name;
   EXPECT_FALSE(pagesHaveTheirCrcs(realFile("bad-crc.e57")));
 }
 
@@ -294,8 +295,10 @@ TEST(E57Reader, ReadsEveryRecordOfTheRealFilesInsideTheirDeclaredBounds) {
       for (int axis = 0; axis < 3; ++axis) {
         const double world = scan.origin[axis] + scan.points.positions[i][axis];
         if (declared[s].cartesianBounds)
-          expectInside(file.boundsAfterPose ? world : local[axis], (*declared[s].cartesianBounds)[axis], "cartesianBounds");
-        if (declared[s].prototypeRanges[axis]) expectInside(local[axis], *declared[s].prototypeRanges[axis], "prototype range");
+          expectInside(file.boundsAfterPose ? world : local[axis], (*declared[s].cartesianBounds)[axis],
+                       "cartesianBounds");
+        if (declared[s].prototypeRanges[axis])
+          expectInside(local[axis], *declared[s].prototypeRanges[axis], "prototype range");
       }
       if (declared[s].rangeBounds)
         expectInside(std::hypot(local[0], local[1], local[2]), *declared[s].rangeBounds, "sphericalBounds");
@@ -327,7 +330,8 @@ TEST(E57Reader, KeepsEachScansPoseAndStationFacts) {
   EXPECT_EQ(twoScans.points.stations, (std::vector<std::uint16_t>{0, 0, 1, 1, 1, 1}));
   EXPECT_TRUE(twoScans.points.hasColors());
   EXPECT_TRUE(twoScans.points.hasIntensities());
-  EXPECT_THAT(twoScans.readNotes, Contains(HasSubstr("intensities mapped to [0, 1] from their limits [0, 0.873046875]")));
+  EXPECT_THAT(twoScans.readNotes,
+              Contains(HasSubstr("intensities mapped to [0, 1] from their limits [0, 0.873046875]")));
 
   // A structured spherical scan: a grid per point, its size from the data.
   const Scan grid = readers::readE57(realFile("read_error.e57"));
@@ -344,9 +348,8 @@ TEST(E57Reader, KeepsEachScansPoseAndStationFacts) {
 
 TEST(E57Reader, NamesWhatItDoesNotRead) {
   const Scan images = readers::readE57(realFile("tiny_pc_and_images.e57"));
-  EXPECT_THAT(images.readNotes,
-              Contains(AllOf(HasSubstr("4 images2D"), HasSubstr("pinhole"), HasSubstr("spherical"),
-                             HasSubstr("cylindrical"), HasSubstr("not read"))));
+  EXPECT_THAT(images.readNotes, Contains(AllOf(HasSubstr("4 images2D"), HasSubstr("pinhole"), HasSubstr("spherical"),
+                                               HasSubstr("cylindrical"), HasSubstr("not read"))));
   const Scan las = readers::readE57(realFile("ColourRepresentation.e57"));
   EXPECT_THAT(las.readNotes, Contains(AllOf(HasSubstr("/data3D/0"), HasSubstr("las:pointSourceId"))));
   EXPECT_THAT(las.readNotes, Contains(HasSubstr("colours mapped to 0-255 from their limits [0, 65535]")));
@@ -365,12 +368,14 @@ TEST(E57Reader, NotesPointsOutsideTheirDeclaredBounds) {
       "<sphericalBounds type=\"Structure\"><rangeMinimum type=\"Float\"/><rangeMaximum "
       "type=\"Float\">0.5</rangeMaximum></sphericalBounds><points ";
   const Scan scan = readers::readE57(withXml(bytes, replaced(xmlOf(bytes), "<points ", bounds)));
-  EXPECT_THAT(scan.readNotes, Contains(AllOf(HasSubstr("points lie outside its declared"), HasSubstr("sphericalBounds"))));
+  EXPECT_THAT(scan.readNotes,
+              Contains(AllOf(HasSubstr("points lie outside its declared"), HasSubstr("sphericalBounds"))));
   for (const Vec3f& p : scan.points.positions) EXPECT_GT(p.norm(), 0.5f);
 }
 
 TEST(E57Reader, RefusesTheBrokenRealFilesSayingWhy) {
-  EXPECT_THAT(e57Failure(realFile("bad-crc.e57")), AllOf(HasSubstr("byte 0: page 0's CRC-32C"), HasSubstr("does not match")));
+  EXPECT_THAT(e57Failure(realFile("bad-crc.e57")),
+              AllOf(HasSubstr("byte 0: page 0's CRC-32C"), HasSubstr("does not match")));
   EXPECT_THAT(e57Failure(realFile("InvalidCVHeader.e57")),
               AllOf(HasSubstr("byte 48"), HasSubstr("/data3D/0/points' compressed vector section"),
                     HasSubstr("section id 182")));
@@ -428,10 +433,10 @@ TEST(E57Reader, ErrorsNameTheXmlElement) {
   const std::string bytes = realFile("A_B.e57");
   const std::string xml = xmlOf(bytes);
   EXPECT_THAT(e57Failure(withXml(bytes, replaced(xml, "precision=\"single\" minimum=\"-4.26422997e+001\"",
-                                                   "precision=\"half\" minimum=\"-4.26422997e+001\""))),
+                                                 "precision=\"half\" minimum=\"-4.26422997e+001\""))),
               HasSubstr("XML element /data3D/0/points/prototype/cartesianX: precision 'half'"));
   EXPECT_THAT(e57Failure(withXml(bytes, replaced(xml, "<colorRed type=\"Integer\" minimum=\"0\" maximum=\"255\"/>",
-                                                   "<colorRed type=\"String\"/>"))),
+                                                 "<colorRed type=\"String\"/>"))),
               HasSubstr("XML element /data3D/0/points/prototype/colorRed: a 'String' field"));
   EXPECT_THAT(e57Failure(withXml(bytes, replaced(xml, "recordCount=\"2\"", "recordCount=\"two\""))),
               HasSubstr("XML element /data3D/0/points (attribute recordCount): expected an integer, got 'two'"));
@@ -466,8 +471,8 @@ TEST(E57Reader, SurvivesCorruptionsBehindValidCrcs) {
 Scan surveyOfThreeStations() {
   Scan scan;
   scan.origin = {512000.0, 5400000.0, 300.0};
-  const std::array<std::array<double, 4>, 3> rotations = {{{1, 0, 0, 0}, {0.9238795325112867, 0, 0, 0.3826834323650898},
-                                                           {0.5, 0.5, -0.5, 0.5}}};
+  const std::array<std::array<double, 4>, 3> rotations = {
+      {{1, 0, 0, 0}, {0.9238795325112867, 0, 0, 0.3826834323650898}, {0.5, 0.5, -0.5, 0.5}}};
   const std::array<Vec3f, 3> positions = {Vec3f(0, 0, 1.5f), Vec3f(20, -5, 1.4f), Vec3f(-12, 30, 2.0f)};
   std::mt19937 random(44);
   std::uniform_real_distribution<float> unit(0.0f, 1.0f);
@@ -532,7 +537,8 @@ TEST(E57Writer, RoundTripKeepsPointsStationsPosesGridsAndAttributes) {
     for (int axis = 0; axis < 3; ++axis) {
       worst = std::max(worst, std::abs((read.origin[axis] + read.points.positions[i][axis]) -
                                        (scan.origin[axis] + scan.points.positions[i][axis])));
-      worstNormal = std::max(worstNormal, double(std::abs(read.points.normals[i][axis] - scan.points.normals[i][axis])));
+      worstNormal =
+          std::max(worstNormal, double(std::abs(read.points.normals[i][axis] - scan.points.normals[i][axis])));
     }
   // Coordinates within 15 m of their station: a scale of 1e-7 m, plus the
   // floats' own spacing at those coordinates (about 1e-6).
@@ -565,7 +571,8 @@ TEST(E57Writer, WritesThroughReadScanAndAScanWithoutStations) {
   ASSERT_EQ(read->points.size(), 500u);
   ASSERT_EQ(read->stations.size(), 1u);
   EXPECT_FALSE(read->stations[0].hasPose);
-  EXPECT_THAT(read->readNotes, Contains(HasSubstr("1 of 501 records skipped as invalid (0 with a direction only, 1 invalid)")));
+  EXPECT_THAT(read->readNotes,
+              Contains(HasSubstr("1 of 501 records skipped as invalid (0 with a direction only, 1 invalid)")));
   for (std::size_t i = 0; i < 500; ++i)
     EXPECT_LT((read->points.positions[i] - plain.points.positions[i]).norm(), 1e-6f);
 }
