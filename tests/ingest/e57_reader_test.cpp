@@ -444,6 +444,97 @@ TEST(E57Reader, ErrorsNameTheXmlElement) {
               HasSubstr("the XML section is not well-formed"));
 }
 
+// Packs values least significant bit first, `bits` each: written here
+// apart from the writer's packer.
+std::string packBits(const std::vector<std::uint64_t>& values, int bits) {
+  std::string bytes((values.size() * bits + 7) / 8, '\0');
+  std::size_t bit = 0;
+  for (const std::uint64_t value : values)
+    for (int b = 0; b < bits; ++b, ++bit)
+      if ((value >> b) & 1) bytes[bit / 8] = static_cast<char>(bytes[bit / 8] | (1 << (bit % 8)));
+  return bytes;
+}
+
+template <class T>
+void append(std::string& bytes, T value) {
+  bytes.append(reinterpret_cast<const char*>(&value), sizeof(T));
+}
+
+// An E57 file made by hand: one scan of `records` records whose prototype
+// is `prototype` (XML), its streams cut into data packets at the byte
+// offsets `cuts` (the same for every stream), wherever records fall.
+std::string handMadeE57(const std::string& prototype, std::uint64_t records, const std::vector<std::string>& streams,
+                        const std::vector<std::size_t>& cuts) {
+  std::string logical(48, '\0');
+  const std::uint64_t section = logical.size();
+  logical += std::string(32, '\0');
+  std::size_t from = 0;
+  for (std::size_t p = 0; p <= cuts.size(); ++p) {
+    std::string packet = {1, 0, 0, 0};
+    append<std::uint16_t>(packet, static_cast<std::uint16_t>(streams.size()));
+    std::string body;
+    for (const std::string& stream : streams) {
+      const std::size_t to = p < cuts.size() ? std::min(cuts[p], stream.size()) : stream.size();
+      const std::string slice = stream.substr(std::min(from, stream.size()), to - std::min(from, to));
+      append<std::uint16_t>(packet, static_cast<std::uint16_t>(slice.size()));
+      body += slice;
+    }
+    packet += body;
+    packet.resize((packet.size() + 3) / 4 * 4, '\0');
+    const auto lengthMinusOne = static_cast<std::uint16_t>(packet.size() - 1);
+    std::memcpy(packet.data() + 2, &lengthMinusOne, 2);
+    logical += packet;
+    if (p < cuts.size()) from = cuts[p];
+  }
+  logical[section] = 1;
+  const std::uint64_t sectionLength = logical.size() - section, dataOffset = section + 32;
+  std::memcpy(logical.data() + section + 8, &sectionLength, 8);
+  std::memcpy(logical.data() + section + 16, &dataOffset, 8);  // within page 0: physical = logical
+  const std::string xml = "<?xml version=\"1.0\"?><e57Root type=\"Structure\"><data3D type=\"Vector\">"
+                          "<vectorChild type=\"Structure\"><points type=\"CompressedVector\" fileOffset=\"48\" "
+                          "recordCount=\"" + std::to_string(records) + "\"><prototype type=\"Structure\">" +
+                          prototype + "</prototype></points></vectorChild></data3D></e57Root>";
+  std::memcpy(logical.data(), "ASTM-E57", 8);
+  const std::uint32_t major = 1;
+  std::memcpy(logical.data() + 8, &major, 4);
+  const std::uint64_t pageSize = 1024;
+  std::memcpy(logical.data() + 40, &pageSize, 8);
+  std::string file;
+  for (std::size_t at = 0; at < logical.size(); at += 1020)
+    file += logical.substr(at, 1020) + std::string(1020 - std::min<std::size_t>(1020, logical.size() - at), '\0') +
+            std::string(4, '\0');
+  const std::uint64_t xmlOffset = file.size();  // the start of a page after the last
+  std::memcpy(file.data() + 24, &xmlOffset, 8);
+  return withXml(file, xml);
+}
+
+TEST(E57Reader, UnpacksWideIntegersAcrossPacketsWhereverRecordsFall) {
+  // 61-bit and 64-bit fields (two word loads per value), a constant 0-bit
+  // field, and packets cut through the middle of values.
+  const std::vector<std::uint64_t> x = {0, 1, std::uint64_t{1} << 40, (std::uint64_t{1} << 60) + 12345, 77, 3};
+  const std::vector<std::int64_t> y = {-5, 0, 1 << 20, std::numeric_limits<std::int64_t>::min(),
+                                       std::numeric_limits<std::int64_t>::max(), -(1 << 22)};
+  std::vector<std::uint64_t> yRaw;
+  for (const std::int64_t v : y) yRaw.push_back(static_cast<std::uint64_t>(v) - static_cast<std::uint64_t>(INT64_MIN));
+  const std::string prototype =
+      "<cartesianX type=\"Integer\" minimum=\"0\" maximum=\"2305843009213693951\"/>"
+      "<cartesianY type=\"ScaledInteger\" minimum=\"-9223372036854775808\" maximum=\"9223372036854775807\" "
+      "scale=\"1e-6\"/><cartesianZ type=\"Integer\" minimum=\"5\" maximum=\"5\"/>";
+  for (const std::vector<std::size_t>& cuts : {std::vector<std::size_t>{}, {3}, {7, 8, 29}, {1, 2, 3, 4, 5, 6, 7}}) {
+    SCOPED_TRACE(testing::PrintToString(cuts));
+    const std::string bytes = handMadeE57(prototype, x.size(), {packBits(x, 61), packBits(yRaw, 64), ""}, cuts);
+    Scan scan;
+    ASSERT_NO_THROW(scan = readers::readE57(bytes)) << e57Failure(bytes);
+    ASSERT_EQ(scan.points.size(), x.size());
+    for (std::size_t i = 0; i < x.size(); ++i) {
+      EXPECT_EQ(scan.origin[0] + scan.points.positions[i].x(), static_cast<float>(static_cast<double>(x[i])));
+      EXPECT_FLOAT_EQ(static_cast<float>(scan.origin[1] + scan.points.positions[i].y()),
+                      static_cast<float>(static_cast<double>(y[i]) * 1e-6));
+      EXPECT_EQ(scan.origin[2] + scan.points.positions[i].z(), 5.0);
+    }
+  }
+}
+
 // Random byte changes with the CRCs mended (what the fuzz target does, a
 // few thousand times): each either reads or is refused with a message.
 TEST(E57Reader, SurvivesCorruptionsBehindValidCrcs) {
