@@ -4,7 +4,7 @@
 # fuzz/corpus/<target>/; the corpus they grow stays in build-fuzz/corpus/.
 # A crash, leak, sanitizer report or timeout fails the run and leaves its
 # input in build-fuzz/artifacts/. Prints a table of executions per target.
-#   bash fuzz/run.sh [SECONDS] [TARGET...]      (targets: ply pcd xyz off obj stl las laz apo n3t config)
+#   bash fuzz/run.sh [SECONDS] [TARGET...]      (targets: ply pcd xyz off obj stl las laz e57 apo n3t config)
 # FUZZ_RUNS=N stops a target after N executions (whichever comes first);
 # FUZZ_JOBS=N runs N targets at a time (default 1).
 set -euo pipefail
@@ -12,7 +12,7 @@ cd "$(dirname "$0")/.."
 seconds=${1:-60}
 shift || true
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(ply pcd xyz off obj stl las laz apo n3t config)
+[ ${#targets[@]} -gt 0 ] || targets=(ply pcd xyz off obj stl las laz e57 apo n3t config)
 build=build-fuzz
 mkdir -p "$build/artifacts"
 

@@ -18,13 +18,13 @@
 
 namespace apo {
 
-enum class ScanFormat { Ply, Pcd, Xyz, Off, Obj, Stl, Las };
+enum class ScanFormat { Ply, Pcd, Xyz, Off, Obj, Stl, Las, E57 };
 
-// Name used in reports: "ply", "pcd", "xyz", "off", "obj", "stl", "las".
+// Name used in reports: "ply", "pcd", "xyz", "off", "obj", "stl", "las", "e57".
 std::string formatName(ScanFormat format);
 
 // The format a path's extension names (case-insensitive: .ply .pcd .xyz .xyzn
-// .pts .pwn .csv .asc .off .obj .stl .las .laz); a BadInput error for anything else.
+// .pts .pwn .csv .asc .off .obj .stl .las .laz .e57); a BadInput error for anything else.
 Result<ScanFormat> formatFromExtension(const std::filesystem::path& path);
 // Whether formatFromExtension accepts the path.
 bool hasScanExtension(const std::filesystem::path& path);
@@ -46,6 +46,8 @@ Result<Scan> readScan(const std::filesystem::path& path, ScanFormat format);
 Status writePly(const std::filesystem::path& path, const Scan& scan, bool worldCoordinates = false);
 // Writes an ASCII PLY with the same properties (for tests and inspection).
 Status writePlyAscii(const std::filesystem::path& path, const Scan& scan);
+// Writes an E57 file of the scan (readers.h, encodeE57), atomically.
+Status writeE57(const std::filesystem::path& path, const Scan& scan);
 
 // How normals are oriented without a viewpoint: propagation over the k-NN
 // graph (Hoppe's rule on our own graph: a 1M-point scan in seconds), or

@@ -21,11 +21,20 @@ Scan readLas(std::string_view bytes);  // LAS 1.0-1.4, and LAZ (LASzip-compresse
 // (the header's count times its record length), LAZ decompressed; refused
 // as readLas refuses. For cross-checks against other LAZ decoders.
 std::string lasPointRecords(std::string_view bytes);
+// E57 (ASTM E2807) 1.0: every scan of the file, each a ScanStation, its
+// points moved by its pose into one frame (docs/ingest.md, "E57").
+Scan readE57(std::string_view bytes);
 
 enum class PlyEncoding { Ascii, BinaryLittleEndian };
 // Local: float positions in the scan's frame, its origin in an apo_origin
 // comment. World: double positions origin + position, no comment.
 enum class PlyFrame { Local, World };
 std::string encodePly(const Scan& scan, PlyEncoding encoding, PlyFrame frame = PlyFrame::Local);
+
+// An E57 1.0 file of the scan: one data3D per station (one for a scan
+// without stations) holding its points in the station's own frame (the
+// inverse of its pose applied), its pose, grid indices, intensities and
+// colours; docs/ingest.md, "E57", has the choices.
+std::string encodeE57(const Scan& scan);
 
 }  // namespace apo::readers

@@ -19,6 +19,7 @@ std::string formatName(ScanFormat format) {
     case ScanFormat::Obj: return "obj";
     case ScanFormat::Stl: return "stl";
     case ScanFormat::Las: return "las";
+    case ScanFormat::E57: return "e57";
   }
   return "unknown";
 }
@@ -34,7 +35,7 @@ constexpr ExtensionFormat kExtensions[] = {
     {".ply", ScanFormat::Ply}, {".pcd", ScanFormat::Pcd}, {".xyz", ScanFormat::Xyz}, {".xyzn", ScanFormat::Xyz},
     {".pts", ScanFormat::Xyz}, {".pwn", ScanFormat::Xyz}, {".off", ScanFormat::Off}, {".obj", ScanFormat::Obj},
     {".stl", ScanFormat::Stl}, {".las", ScanFormat::Las}, {".laz", ScanFormat::Las}, {".csv", ScanFormat::Xyz},
-    {".asc", ScanFormat::Xyz},
+    {".asc", ScanFormat::Xyz}, {".e57", ScanFormat::E57},
 };
 
 // Scan formats labs meet that apo has no reader for, so that the refusal can
@@ -44,7 +45,7 @@ struct KnownFormat {
   const char* name;
 };
 constexpr KnownFormat kUnreadFormats[] = {
-    {".e57", "E57 (ASTM E2807)"},          {".ptx", "Leica PTX"},          {".ptg", "Leica PTG"},
+    {".ptx", "Leica PTX"},                 {".ptg", "Leica PTG"},
     {".fls", "FARO scan"},                 {".fws", "FARO workspace"},     {".rcp", "Autodesk ReCap project"},
     {".rcs", "Autodesk ReCap scan"},       {".zfs", "Z+F scan"},           {".x3a", "RIEGL scan"},
     {".rdbx", "RIEGL RDB"},                {".3mf", "3MF mesh"},           {".gltf", "glTF"},
@@ -100,6 +101,7 @@ Result<Scan> readScan(const fs::path& path, ScanFormat format) {
       case ScanFormat::Obj: return readers::readObj(content);
       case ScanFormat::Stl: return readers::readStl(content);
       case ScanFormat::Las: return readers::readLas(content);
+      case ScanFormat::E57: return readers::readE57(content);
     }
   } catch (const parse::ParseFailure& failure) {
     return badInput("{}: {}", path.string(), failure.what());
@@ -117,5 +119,7 @@ Status writePly(const fs::path& path, const Scan& scan, bool worldCoordinates) {
 Status writePlyAscii(const fs::path& path, const Scan& scan) {
   return writeFileAtomically(path, readers::encodePly(scan, readers::PlyEncoding::Ascii));
 }
+
+Status writeE57(const fs::path& path, const Scan& scan) { return writeFileAtomically(path, readers::encodeE57(scan)); }
 
 }  // namespace apo

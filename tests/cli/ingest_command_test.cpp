@@ -86,7 +86,7 @@ TEST(IngestCommand, WrongMagic) { expectRejected("magic.ply", "plx\nformat ascii
 TEST(IngestCommand, UnsupportedExtension) { expectRejected("scan.dat", "LASF", "unsupported extension"); }
 
 TEST(IngestCommand, KnownFormatWithoutReaderSaysWhatToExport) {
-  expectRejected("scan.e57", "ASTM-E57", "E57 (ASTM E2807) files have no reader in apo: export the scan as PLY, LAS or XYZ");
+  expectRejected("scan.ptx", "PTX", "Leica PTX files have no reader in apo: export the scan as PLY, LAS or XYZ");
 }
 
 TEST(IngestCommand, DirectoryAsInput) {
