@@ -43,7 +43,8 @@ int runIngest(IngestCommand command) {
 
 struct SimulateScanCommand {
   fs::path mesh;
-  fs::path output;
+  fs::path output;     // PLY: the points (with --normals, their true normals)
+  fs::path e57Output;  // E57: one scan per view, with its pose and row/column grid
   SimulateScanOptions options;
 };
 
@@ -53,11 +54,20 @@ int runSimulateScan(const SimulateScanCommand& command) {
   auto mesh = readScan(command.mesh);
   if (!mesh) return reportFailure(mesh.error());
   if (!mesh->isMesh()) return reportFailure(badInput("{}: simulate-scan needs a triangle mesh, the file has only points", command.mesh.string()));
+  if (command.output.empty() && command.e57Output.empty())
+    return reportFailure(usageError("simulate-scan: give -o OUT.ply, --e57 OUT.e57, or both"));
   auto simulated = simulateRangeScan(*mesh, *options);
   if (!simulated) return reportFailure(aboutInput(command.mesh, simulated.error()));
-  if (Status written = writePly(command.output, simulated->scan); !written.ok()) return reportFailure(written.error());
-  spdlog::info("simulate-scan: {} points from {} views -> {}", simulated->scan.points.size(), command.options.views,
-               command.output.string());
+  if (!command.output.empty()) {
+    if (Status written = writePly(command.output, simulated->scan); !written.ok()) return reportFailure(written.error());
+    spdlog::info("simulate-scan: {} points from {} views -> {}", simulated->scan.points.size(), command.options.views,
+                 command.output.string());
+  }
+  if (!command.e57Output.empty()) {
+    if (Status written = writeE57(command.e57Output, simulated->scan); !written.ok()) return reportFailure(written.error());
+    spdlog::info("simulate-scan: {} points in {} scans with their poses and grids -> {}", simulated->scan.points.size(),
+                 simulated->scan.stations.size(), command.e57Output.string());
+  }
   return kExitSuccess;
 }
 
@@ -143,7 +153,9 @@ void addSimulateScanCommand(CLI::App& app, int& exitCode) {
   auto command = std::make_shared<SimulateScanCommand>();
   CLI::App* sub = app.add_subcommand("simulate-scan", "Scan a mesh with a virtual range scanner (test data with known truth)");
   sub->add_option("mesh", command->mesh, "Triangle mesh to scan")->required();
-  sub->add_option("-o,--out", command->output, "Output point cloud (.ply)")->required();
+  sub->add_option("-o,--out", command->output, "Output point cloud (.ply)");
+  sub->add_option("--e57", command->e57Output,
+                  "Also (or instead) write an E57 file: one scan per view, with its position, pose and row/column grid");
   SimulateScanOptions& o = command->options;
   sub->add_option("--views", o.views, "Scanner positions around the mesh")->capture_default_str();
   sub->add_option("--rays", o.raysPerSide, "Rays per side of each view's square grid")->capture_default_str();

@@ -417,6 +417,13 @@ Status cleanPointCloud(Scan& scan, const IngestOptions& options, IngestReport& r
   return okStatus();
 }
 
+// "drop_points_without_normal removed the last 8": which step emptied the scan.
+std::string lastRemoval(const IngestReport& report) {
+  for (auto step = report.steps.rbegin(); step != report.steps.rend(); ++step)
+    if (step->removed > 0) return fmt::format("{} removed the last {}", step->name, step->removed);
+  return "no step removed any";
+}
+
 Status pointCloudNormals(Scan& scan, const IngestOptions& options, IngestReport& report, const fs::path& path) {
   const bool haveUsable = scan.points.hasNormals() && cleaning::normaliseNormals(scan.points) == 0;
   if (haveUsable && !options.forceNormalEstimation) {
@@ -431,8 +438,8 @@ Status pointCloudNormals(Scan& scan, const IngestOptions& options, IngestReport&
     return okStatus();
   }
   if (scan.points.size() < kMinPointsForNormals)
-    return badInput("{}: {} points are too few to estimate normals (need at least {})", path.string(),
-                    scan.points.size(), kMinPointsForNormals);
+    return badInput("{}: {} points are too few to estimate normals (need at least {}; {})", path.string(),
+                    scan.points.size(), kMinPointsForNormals, lastRemoval(report));
 
   if (options.sensorPosition) {
     scan.viewpoint = Viewpoint{};
@@ -508,13 +515,6 @@ nlohmann::ordered_json stationsJson(const IngestReport& report) {
     stations.push_back(std::move(entry));
   }
   return stations;
-}
-
-// "drop_points_without_normal removed the last 8": which step emptied the scan.
-std::string lastRemoval(const IngestReport& report) {
-  for (auto step = report.steps.rbegin(); step != report.steps.rend(); ++step)
-    if (step->removed > 0) return fmt::format("{} removed the last {}", step->name, step->removed);
-  return "no step removed any";
 }
 
 }  // namespace
