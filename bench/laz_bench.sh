@@ -12,13 +12,32 @@
 #   [REPEATS=3] bash bench/laz_bench.sh [ROUNDS] [FILE.laz ...]
 # Defaults: ../shared/data/laz/lone-star.copc.laz (518,862 points, COPC,
 # compressor 3) and fuzz/corpus/laz/simple.laz (1,065 points, compressor 2).
-# Needs build/laz_speed (cmake --build build --target laz_speed) and npm ci.
+#   [REPEATS=3] bash bench/laz_bench.sh --simulated [ROUNDS]
+# instead makes a LAZ file of 21,350,000-odd points with our own writer
+# (apo simulate-scan of the bundled Stanford bunny, 8 views of 3,200 x 3,200
+# rays; LASzip compressor 2, point format 0) in build/bench_data, unless it
+# is there already, and times it: a scanner-sized file where the fixed costs
+# (opening the file, WASM start-up) no longer count.
+# Needs build/laz_speed (cmake --build build --target laz_speed) and npm ci;
+# --simulated also build/apo (--target apo).
 set -euo pipefail
 cd "$(dirname "$0")/.."
+simulated=
+if [ "${1:-}" = --simulated ]; then
+  simulated=build/bench_data/bunny-8x3200.laz
+  shift
+fi
 rounds=${1:-5}
 repeats=${REPEATS:-3}
 shift || true
 files=("$@")
+if [ -n "$simulated" ]; then
+  if [ ! -f "$simulated" ]; then
+    mkdir -p "$(dirname "$simulated")"
+    build/apo simulate-scan datasets/cgal/meshes/bunny00.off --views 8 --rays 3200 --laz "$simulated"
+  fi
+  files=("$simulated")
+fi
 [ ${#files[@]} -gt 0 ] || files=(../shared/data/laz/lone-star.copc.laz fuzz/corpus/laz/simple.laz)
 echo "load before: $(uptime)"
 printf '| file | points | apo s | apo points/s | laz-perf s | laz-perf points/s | laz-perf time / apo time |\n|---|---|---|---|---|---|---|\n'

@@ -45,8 +45,18 @@ struct SimulateScanCommand {
   fs::path mesh;
   fs::path output;     // PLY: the points (with --normals, their true normals)
   fs::path e57Output;  // E57: one scan per view, with its pose and row/column grid
+  fs::path lasOutput, lazOutput;  // LAS 1.2 and LAZ: the points, each with its view as point source id
   SimulateScanOptions options;
 };
+
+// The scan as LAS or LAZ when asked for (test data for read-speed benchmarks
+// of tens of millions of points).
+Status writeLasOutput(const fs::path& path, const Scan& scan, bool compressed) {
+  if (path.empty()) return okStatus();
+  APO_RETURN_IF_ERROR(writeLas(path, scan, compressed));
+  spdlog::info("simulate-scan: {} points as {} -> {}", scan.points.size(), compressed ? "LAZ" : "LAS", path.string());
+  return okStatus();
+}
 
 int runSimulateScan(const SimulateScanCommand& command) {
   const auto options = check(command.options);
@@ -54,8 +64,8 @@ int runSimulateScan(const SimulateScanCommand& command) {
   auto mesh = readScan(command.mesh);
   if (!mesh) return reportFailure(mesh.error());
   if (!mesh->isMesh()) return reportFailure(badInput("{}: simulate-scan needs a triangle mesh, the file has only points", command.mesh.string()));
-  if (command.output.empty() && command.e57Output.empty())
-    return reportFailure(usageError("simulate-scan: give -o OUT.ply, --e57 OUT.e57, or both"));
+  if (command.output.empty() && command.e57Output.empty() && command.lasOutput.empty() && command.lazOutput.empty())
+    return reportFailure(usageError("simulate-scan: give one or more of -o OUT.ply, --e57 OUT.e57, --las OUT.las and --laz OUT.laz"));
   auto simulated = simulateRangeScan(*mesh, *options);
   if (!simulated) return reportFailure(aboutInput(command.mesh, simulated.error()));
   if (!command.output.empty()) {
@@ -68,6 +78,10 @@ int runSimulateScan(const SimulateScanCommand& command) {
     spdlog::info("simulate-scan: {} points in {} scans with their poses and grids -> {}", simulated->scan.points.size(),
                  simulated->scan.stations.size(), command.e57Output.string());
   }
+  if (Status written = writeLasOutput(command.lasOutput, simulated->scan, false); !written.ok())
+    return reportFailure(written.error());
+  if (Status written = writeLasOutput(command.lazOutput, simulated->scan, true); !written.ok())
+    return reportFailure(written.error());
   return kExitSuccess;
 }
 
@@ -156,6 +170,9 @@ void addSimulateScanCommand(CLI::App& app, int& exitCode) {
   sub->add_option("-o,--out", command->output, "Output point cloud (.ply)");
   sub->add_option("--e57", command->e57Output,
                   "Also (or instead) write an E57 file: one scan per view, with its position, pose and row/column grid");
+  sub->add_option("--las", command->lasOutput, "Also (or instead) write a LAS 1.2 file of the points");
+  sub->add_option("--laz", command->lazOutput,
+                  "Also (or instead) write a LAZ file of the points (LASzip compressor 2, as LASzip writes it)");
   SimulateScanOptions& o = command->options;
   sub->add_option("--views", o.views, "Scanner positions around the mesh")->capture_default_str();
   sub->add_option("--rays", o.raysPerSide, "Rays per side of each view's square grid")->capture_default_str();

@@ -48,6 +48,10 @@ Status writePly(const std::filesystem::path& path, const Scan& scan, bool worldC
 Status writePlyAscii(const std::filesystem::path& path, const Scan& scan);
 // Writes an E57 file of the scan (readers.h, encodeE57), atomically.
 Status writeE57(const std::filesystem::path& path, const Scan& scan);
+// Writes a LAS 1.2 file of the scan's points, LAZ when `compressed`
+// (readers.h, encodeLas), atomically. A BadInput error for a scan LAS
+// cannot hold: no points, over 2^32 - 1, or a non-finite coordinate.
+Status writeLas(const std::filesystem::path& path, const Scan& scan, bool compressed);
 
 // How normals are oriented without a viewpoint: propagation over the k-NN
 // graph (Hoppe's rule on our own graph: a 1M-point scan in seconds), or

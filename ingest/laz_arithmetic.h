@@ -40,6 +40,7 @@ class BitModel {
 
  private:
   friend class ArithmeticDecoder;
+  friend class ArithmeticEncoder;
 
   void update() {
     // Halve the counts when they reach the limit.
@@ -89,6 +90,7 @@ class SymbolModel {
 
  private:
   friend class ArithmeticDecoder;
+  friend class ArithmeticEncoder;
 
   void update() {
     // Halve the counts when their total reaches the limit.
@@ -269,37 +271,41 @@ class ArithmeticDecoder {
   std::uint32_t value_ = 0, length_ = 0;
 };
 
-// LASzip's IntegerCompressor, decoding side: an integer is its prediction
-// plus a corrector, coded as the corrector's bit length k (one model per
-// context) and then its k bits (models for the high ones, raw for the rest).
-// Arithmetic wraps modulo 2^bits as LASzip's does.
-class IntegerDecoder {
+// The models of LASzip's IntegerCompressor, shared by its decoding side
+// (IntegerDecoder) and its encoding side (IntegerEncoder, in
+// laz_arithmetic_encoder.h): an integer is its prediction plus a corrector,
+// coded as the corrector's bit length k (one model per context) and then its
+// k bits (models for the high ones, raw for the rest). Arithmetic wraps
+// modulo 2^bits as LASzip's does.
+class IntegerModels {
  public:
-  explicit IntegerDecoder(std::uint32_t bits = 16, std::uint32_t contexts = 1, std::uint32_t bitsHigh = 8,
-                          std::uint32_t range = 0)
-      : bitsHigh_(bitsHigh) {
+  explicit IntegerModels(std::uint32_t bits, std::uint32_t contexts, std::uint32_t bitsHigh, std::uint32_t range)
+      : bitsHigh(bitsHigh) {
     if (range != 0) {
       // The corrector's significant bits for an explicit range.
-      correctorRange_ = range;
+      correctorRange = range;
       while (range != 0) {
         range >>= 1;
-        ++correctorBits_;
+        ++correctorBits;
       }
-      if (correctorRange_ == (1U << (correctorBits_ - 1))) --correctorBits_;
-      correctorMin_ = -static_cast<std::int32_t>(correctorRange_ / 2);
+      if (correctorRange == (1U << (correctorBits - 1))) --correctorBits;
+      correctorMin = -static_cast<std::int32_t>(correctorRange / 2);
+      correctorMax = static_cast<std::int32_t>(static_cast<std::uint32_t>(correctorMin) + correctorRange - 1);
     } else if (bits != 0 && bits < 32) {
-      correctorBits_ = bits;
-      correctorRange_ = 1U << bits;
-      correctorMin_ = -static_cast<std::int32_t>(correctorRange_ / 2);
+      correctorBits = bits;
+      correctorRange = 1U << bits;
+      correctorMin = -static_cast<std::int32_t>(correctorRange / 2);
+      correctorMax = static_cast<std::int32_t>(static_cast<std::uint32_t>(correctorMin) + correctorRange - 1);
     } else {
-      correctorBits_ = 32;
-      correctorRange_ = 0;
-      correctorMin_ = INT32_MIN;
+      correctorBits = 32;
+      correctorRange = 0;
+      correctorMin = INT32_MIN;
+      correctorMax = INT32_MAX;
     }
     kModels_.reserve(contexts);
-    for (std::uint32_t i = 0; i < contexts; ++i) kModels_.emplace_back(correctorBits_ + 1);
-    correctorModels_.reserve(correctorBits_);
-    for (std::uint32_t i = 1; i <= correctorBits_; ++i) correctorModels_.emplace_back(1U << std::min(i, bitsHigh_));
+    for (std::uint32_t i = 0; i < contexts; ++i) kModels_.emplace_back(correctorBits + 1);
+    correctorModels_.reserve(correctorBits);
+    for (std::uint32_t i = 1; i <= correctorBits; ++i) correctorModels_.emplace_back(1U << std::min(i, bitsHigh));
     // Constructed models are fresh for the first chunk.
     kModelsResetIn_.assign(kModels_.size(), chunk_);
     correctorModelsResetIn_.assign(correctorModels_.size(), chunk_);
@@ -307,22 +313,20 @@ class IntegerDecoder {
 
   // All models back to their start (a new chunk). The symbol models are
   // reset on their first use after this: a small chunk (COPC's) uses few of
-  // the dozens an integer decoder has.
+  // the dozens an integer coder has.
   void reset() {
     ++chunk_;
-    corrector0_.reset();
+    corrector0.reset();
   }
 
-  std::int32_t decode(ArithmeticDecoder& decoder, std::int32_t predicted, std::uint32_t context = 0) {
-    std::uint32_t real = static_cast<std::uint32_t>(predicted) +
-                         static_cast<std::uint32_t>(readCorrector(decoder, context));
-    if (static_cast<std::int32_t>(real) < 0) real += correctorRange_;
-    else if (real >= correctorRange_) real -= correctorRange_;
-    return static_cast<std::int32_t>(real);
-  }
+  // The model of k in a context, and of a k-bit corrector's high bits.
+  SymbolModel& kModel(std::uint32_t context) { return fresh(kModels_, kModelsResetIn_, context); }
+  SymbolModel& correctorModel(std::uint32_t k) { return fresh(correctorModels_, correctorModelsResetIn_, k - 1); }
 
-  // The bit length of the last corrector (LASzip uses it as a context).
-  std::uint32_t k() const { return k_; }
+  std::uint32_t bitsHigh;
+  std::uint32_t correctorBits = 0, correctorRange = 0;
+  std::int32_t correctorMin = 0, correctorMax = 0;
+  BitModel corrector0;  // k = 0: the corrector is 0 or 1
 
  private:
   // Models_[i] reset if this chunk has not used it yet.
@@ -334,15 +338,43 @@ class IntegerDecoder {
     return models[i];
   }
 
+  std::uint64_t chunk_ = 1;  // models whose resetIn is behind it start afresh
+  std::vector<SymbolModel> kModels_;
+  std::vector<std::uint64_t> kModelsResetIn_;
+  std::vector<SymbolModel> correctorModels_;  // [k - 1] for k = 1 .. correctorBits
+  std::vector<std::uint64_t> correctorModelsResetIn_;
+};
+
+// LASzip's IntegerCompressor, decoding side.
+class IntegerDecoder {
+ public:
+  explicit IntegerDecoder(std::uint32_t bits = 16, std::uint32_t contexts = 1, std::uint32_t bitsHigh = 8,
+                          std::uint32_t range = 0)
+      : models_(bits, contexts, bitsHigh, range) {}
+
+  // All models back to their start (a new chunk).
+  void reset() { models_.reset(); }
+
+  std::int32_t decode(ArithmeticDecoder& decoder, std::int32_t predicted, std::uint32_t context = 0) {
+    std::uint32_t real = static_cast<std::uint32_t>(predicted) +
+                         static_cast<std::uint32_t>(readCorrector(decoder, context));
+    if (static_cast<std::int32_t>(real) < 0) real += models_.correctorRange;
+    else if (real >= models_.correctorRange) real -= models_.correctorRange;
+    return static_cast<std::int32_t>(real);
+  }
+
+  // The bit length of the last corrector (LASzip uses it as a context).
+  std::uint32_t k() const { return k_; }
+
+ private:
   std::int32_t readCorrector(ArithmeticDecoder& decoder, std::uint32_t context) {
-    k_ = decoder.decodeSymbol(fresh(kModels_, kModelsResetIn_, context));
-    // k = 0: the corrector is 0 or 1.
-    if (k_ == 0) return static_cast<std::int32_t>(decoder.decodeBit(corrector0_));
-    if (k_ >= 32) return correctorMin_;
-    std::uint32_t c = decoder.decodeSymbol(fresh(correctorModels_, correctorModelsResetIn_, k_ - 1));
+    k_ = decoder.decodeSymbol(models_.kModel(context));
+    if (k_ == 0) return static_cast<std::int32_t>(decoder.decodeBit(models_.corrector0));
+    if (k_ >= 32) return models_.correctorMin;
+    std::uint32_t c = decoder.decodeSymbol(models_.correctorModel(k_));
     // Above bitsHigh bits, the low k - bitsHigh come raw.
-    if (k_ > bitsHigh_) {
-      const std::uint32_t lowBits = k_ - bitsHigh_;
+    if (k_ > models_.bitsHigh) {
+      const std::uint32_t lowBits = k_ - models_.bitsHigh;
       c = (c << lowBits) | decoder.readBits(lowBits);
     }
     // Back from [0, 2^k) to [-(2^k - 1), -2^(k-1)] or [2^(k-1) + 1, 2^k].
@@ -350,16 +382,8 @@ class IntegerDecoder {
     return static_cast<std::int32_t>(c - ((1U << k_) - 1));
   }
 
-  std::uint32_t bitsHigh_;
-  std::uint32_t correctorBits_ = 0, correctorRange_ = 0;
-  std::int32_t correctorMin_ = 0;
+  IntegerModels models_;
   std::uint32_t k_ = 0;
-  std::uint64_t chunk_ = 1;  // models whose resetIn is behind it start afresh
-  std::vector<SymbolModel> kModels_;
-  std::vector<std::uint64_t> kModelsResetIn_;
-  BitModel corrector0_;
-  std::vector<SymbolModel> correctorModels_;  // [k - 1] for k = 1 .. correctorBits
-  std::vector<std::uint64_t> correctorModelsResetIn_;
 };
 
 }  // namespace apo::laz

@@ -37,4 +37,17 @@ std::string encodePly(const Scan& scan, PlyEncoding encoding, PlyFrame frame = P
 // colours; docs/ingest.md, "E57", has the choices.
 std::string encodeE57(const Scan& scan);
 
+// A LAS 1.2 file of the scan's points (Laz: LASzip-compressed, compressor 2
+// in 50,000-point chunks, as LASzip writes it): point format 0, or 2 when
+// the points have colours (8-bit channels times 257); coordinates on the
+// power-of-ten grid finest below half a float's spacing at the largest
+// coordinate, offset at the box minimum plus the scan's origin (the file is
+// in the scan's file coordinates); intensities as they are when all are
+// whole numbers in [0, 65535], else scaled to [0, 65535]; classes 0 to 31
+// (above: 1, unclassified); return numbers and counts (1 of 1 without);
+// each point's station index as its point source id. The scan must have 1
+// to 2^32 - 1 points, all finite (writeLas checks).
+enum class LasEncoding { Las, Laz };
+std::string encodeLas(const Scan& scan, LasEncoding encoding);
+
 }  // namespace apo::readers

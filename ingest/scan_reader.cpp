@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <limits>
 
 namespace apo {
 namespace fs = std::filesystem;
@@ -121,5 +122,16 @@ Status writePlyAscii(const fs::path& path, const Scan& scan) {
 }
 
 Status writeE57(const fs::path& path, const Scan& scan) { return writeFileAtomically(path, readers::encodeE57(scan)); }
+
+Status writeLas(const fs::path& path, const Scan& scan, bool compressed) {
+  const std::vector<Vec3f>& positions = scan.points.positions;
+  if (positions.empty() || positions.size() > std::numeric_limits<std::uint32_t>::max())
+    return badInput("{}: LAS 1.2 holds 1 to {} points, the scan has {}", path.string(),
+                    std::numeric_limits<std::uint32_t>::max(), positions.size());
+  const auto nonFinite = std::find_if(positions.begin(), positions.end(), [](const Vec3f& p) { return !p.allFinite(); });
+  if (nonFinite != positions.end())
+    return badInput("{}: LAS cannot hold point {}'s non-finite coordinates", path.string(), nonFinite - positions.begin());
+  return writeFileAtomically(path, readers::encodeLas(scan, compressed ? readers::LasEncoding::Laz : readers::LasEncoding::Las));
+}
 
 }  // namespace apo

@@ -9,6 +9,7 @@
 #include "ingest/parse_util.h"
 #include "ingest/readers.h"
 
+#include "tests/ingest/lazperf.h"
 #include "tests/ingest/reader_failure.h"
 
 #include <gmock/gmock.h>
@@ -16,7 +17,6 @@
 #include <nlohmann/json.hpp>
 
 #include <cstdint>
-#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -55,25 +55,11 @@ void put(std::string& bytes, std::size_t at, T value) {
   std::memcpy(bytes.data() + at, &value, sizeof(T));  // little-endian machine
 }
 
-// What laz-perf decompresses from a file: its point count, record length and
-// the SHA-256 of all its records; {"error": ...} when it refuses the file.
-nlohmann::json decodedByLazPerf(const fs::path& file) {
-  const fs::path source(APO_SOURCE_DIR);
-  const fs::path output = fs::path(testing::TempDir()) / (file.filename().string() + ".lazperf.json");
-  const std::string command = "node '" + (source / "tests/ingest/lazperf_decode.mjs").string() + "' '" +
-                              file.string() + "' > '" + output.string() + "'";
-  const int status = std::system(command.c_str());
-  std::ifstream in(output);
-  const nlohmann::json read = nlohmann::json::parse(in, nullptr, false);
-  EXPECT_EQ(status, 0) << command << ": " << read.dump().substr(0, 300);
-  return read;
-}
-
 // Our records of `file` byte for byte against laz-perf's (by their hash; on a
 // mismatch, the count and length say which side differs).
 void expectSameRecordsAsLazPerf(const fs::path& file) {
   SCOPED_TRACE(file.filename().string());
-  const nlohmann::json theirs = decodedByLazPerf(file);
+  const nlohmann::json theirs = test::decodedByLazPerf(file);
   ASSERT_TRUE(theirs.contains("sha256")) << theirs.dump().substr(0, 300);
   const std::string ours = readers::lasPointRecords(fileBytes(file));
   const auto points = theirs["points"].get<std::size_t>();
