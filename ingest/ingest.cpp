@@ -390,7 +390,8 @@ Status gridMeshNormals(Scan& scan, const IngestOptions& options, IngestReport& r
   }
   report.normalSeconds = watch.seconds();
   report.normalsSource = "estimated";
-  report.normalOrientation = fitted->orientation;
+  report.normalOrientation =
+      fitted->orientation == "viewpoint" && !report.stationGrids.empty() ? "scan_positions" : fitted->orientation;
   report.normalNeighbours = fitted->neighbours;
   report.sensor.source = report.gridMesh.sensorSource;
   if (fitted->agreement) recordAgreement(*fitted->agreement, report.sensor);
