@@ -7,6 +7,8 @@
 #   bash fuzz/run.sh [SECONDS] [TARGET...]      (targets: ply pcd xyz off obj stl las laz e57 apo n3t config)
 # FUZZ_RUNS=N stops a target after N executions (whichever comes first);
 # FUZZ_JOBS=N runs N targets at a time (default 1).
+# FUZZ_MAX_LEN=N caps the inputs at N bytes (libFuzzer's default: the
+# largest seed): the E57 and LAZ seeds are up to 500 kB, each a full decode.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-60}
@@ -27,7 +29,7 @@ fuzz_one() {
   local target=$1 log="$build/fuzz_$1.log" status=0
   mkdir -p "$build/corpus/$target"
   # The grown corpus first (new inputs go there), the committed seeds second.
-  "$build/fuzz_$target" -max_total_time="$seconds" ${FUZZ_RUNS:+-runs=$FUZZ_RUNS} -timeout=10 -rss_limit_mb=2048 \
+  "$build/fuzz_$target" -max_total_time="$seconds" ${FUZZ_RUNS:+-runs=$FUZZ_RUNS} ${FUZZ_MAX_LEN:+-max_len=$FUZZ_MAX_LEN} -timeout=10 -rss_limit_mb=2048 \
     -malloc_limit_mb=1024 -print_final_stats=1 -artifact_prefix="$build/artifacts/$target-" \
     "$build/corpus/$target" "fuzz/corpus/$target" >"$log" 2>&1 || status=$?
   local executions rate elapsed corpus result=ok
@@ -43,7 +45,7 @@ fuzz_one() {
     >"$build/result_$target"
 }
 export -f fuzz_one
-export build seconds FUZZ_RUNS
+export build seconds FUZZ_RUNS FUZZ_MAX_LEN
 
 rm -f "$build"/result_*
 printf '%s\n' "${targets[@]}" | xargs -P "${FUZZ_JOBS:-1}" -I{} bash -c 'fuzz_one {}'
