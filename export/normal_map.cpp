@@ -154,19 +154,24 @@ NormalMap bakeTangentNormalMap(const GltfMesh& mesh, const PatchAtlas& atlas, co
   const std::size_t texels = std::size_t{atlas.width} * atlas.height;
   std::vector<Vec3f> values(texels, Vec3f::Zero());
   std::vector<float> weights(texels, 0.0f);
-  // Each texel on its own (the field is thread-safe), on every core; the
-  // same values whatever their number.
+  // Each sample on its own (the field is thread-safe), on every core; then
+  // written in sample order, so that where two samples share a texel the
+  // later one wins whatever the threads' timing.
   const std::vector<TexelSample> samples = patchTexels(atlas);
   std::vector<std::uint8_t> answered(samples.size(), 0);
+  std::vector<Vec3f> tangentSpace(samples.size());
   tbb::parallel_for(std::size_t{0}, samples.size(), [&](std::size_t s) {
     const TexelSample& sample = samples[s];
     const Frame frame = viewerFrame(mesh, sample.triangle, sample.weights);
     const Vec3f wanted = field(samplePoint(mesh, sample), frame.normal);
     answered[s] = wanted.squaredNorm() > 0.0f ? 1 : 0;
     const Vec3f n = answered[s] != 0 ? Vec3f(wanted.normalized()) : frame.normal;
-    values[sample.texel] = Vec3f(n.dot(frame.tangent), n.dot(frame.bitangent), n.dot(frame.normal));
-    weights[sample.texel] = 1.0f;
+    tangentSpace[s] = Vec3f(n.dot(frame.tangent), n.dot(frame.bitangent), n.dot(frame.normal));
   });
+  for (std::size_t s = 0; s < samples.size(); ++s) {
+    values[samples[s].texel] = tangentSpace[s];
+    weights[samples[s].texel] = 1.0f;
+  }
   map.texelsFilled = samples.size();
   for (const std::uint8_t a : answered) map.texelsWithoutAnswer += a != 0 ? 0 : 1;
   if (map.texelsFilled > 0) pushPull(values, weights, atlas.width, atlas.height);
