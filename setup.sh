@@ -23,6 +23,8 @@ PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev chromium chromium-driver clang libclang-rt-14-dev
   # the independent measuring scripts of ../shared/tools/ (benchmarks only)
   python3-numpy python3-scipy python3-open3d python3-pil
+  # an independent CRC-32C for the E57 writer's pages (tests/ingest/e57_reader_test.cpp)
+  python3-crc32c
   # the cluster test (tests/cluster/slurm_check.sh): a one-node Slurm
   # cluster and its authentication; dpkg-dev's dpkg-shlibdeps for CPack's .deb
   slurm-wlm munge dpkg-dev

@@ -282,6 +282,7 @@ IngestReport::StationGrid triangulateStationGrid(Scan& scan, std::size_t station
 // grid, a grid is far sparser than its points (over kMaxCellsPerPoint
 // cells each), or the positions are not believable.
 void triangulateStationGrids(Scan& scan, const IngestOptions& options, IngestReport& report) {
+  if (scan.stations.empty() || !scan.points.hasStations()) return;
   for (const ScanStation& station : scan.stations) {
     const std::uint64_t cells = std::uint64_t{station.rowCount} * station.columnCount;
     if (cells == 0 || cells > kMaxCellsPerPoint * std::max<std::uint64_t>(station.pointCount, 1)) {
