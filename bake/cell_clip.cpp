@@ -92,7 +92,7 @@ std::uint8_t childrenMeeting(const Vec3f& a, const Vec3f& b, const Vec3f& c, con
     const float tolerance = kRounding * axis.cwiseAbs().sum() * reach;
     // All eight children judged at once, without a branch per child (with
     // the sampling's clip in place, 4% of the bunny's CPU time less than a
-    // loop skipping those already apart: docs/benchmarks.md, "A faster build"); a
+    // loop skipping those already apart: docs/bake.md, "A faster build"); a
     // child already apart is judged again to no effect.
     std::array<float, 8> gap;
     for (unsigned child = 0; child < 8; ++child) {

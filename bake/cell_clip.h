@@ -33,7 +33,7 @@ namespace apo::octree {
 // A list of primitives (m's or M's triangles, by index). Hundreds of
 // thousands are made on the evaluating threads and freed on the main one;
 // glibc's allocator spent a tenth of the 1.2M-triangle build freeing them
-// (docs/benchmarks.md, "A faster build"), TBB's scalable allocator keeps
+// (docs/bake.md, "A faster build"), TBB's scalable allocator keeps
 // per-thread free lists.
 using IdList = std::vector<std::uint32_t, tbb::scalable_allocator<std::uint32_t>>;
 

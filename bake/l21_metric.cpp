@@ -42,7 +42,7 @@ std::uint64_t pointKey(const Vec3f& p) {
 // all; once at it, 2.8M. Wider cells leave more levels to clip, narrower
 // ones cut each triangle into more pieces: the rule picks the fastest of
 // three depths on both the bunny (8) and the 7.2M torus (9)
-// (docs/benchmarks.md, "A faster build").
+// (docs/bake.md, "A faster build").
 constexpr double kSumCellOverTriangle = 2.0;
 // Where M's triangles differ in size (a few large ones, a floor under a
 // scanned object, among many small ones), the depth the mean picks would

@@ -276,7 +276,7 @@ KeyRun runOfCell(const std::vector<std::uint64_t>& keys, const Cell& cell, const
 // points in any cell are then one run of the order, found by two binary
 // searches, and summed in one pass over contiguous records. Filing each
 // point into the children of every cell it went down through, as triangles
-// are, cost the 2M-point bake a third of its build (docs/benchmarks.md,
+// are, cost the 2M-point bake a third of its build (docs/bake.md,
 // "A faster build").
 class PointOrder {
  public:

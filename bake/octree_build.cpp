@@ -231,7 +231,7 @@ class MetricEvaluator {
   // Each triangle is cut at the midplanes it crosses (GridSweep), and its
   // parts are both the overlap test and the pieces the children's sums take
   // (filing by a separating-axis test, then clipping again to sum, cost 3-5%
-  // more of the build: docs/benchmarks.md, "A faster build"). A triangle
+  // more of the build: docs/bake.md, "A faster build"). A triangle
   // whose part in a child has no area is not filed there: it adds nothing
   // below.
   ChildErrors distributeTriangles(const Leaf& leaf, std::uint8_t mask, ChildFiling& filing) const {

@@ -7,7 +7,7 @@
 // `glibc.malloc.hugetlb` tunable says so, which it reads from the
 // environment at start-up. With 4 KiB pages a fifth of the bake went to page
 // faults: 1.2M triangles at 3 MiB 5.7 s, 4.4 s with the tunable; the 7.2M
-// torus 15.1 s, 10.7 s (docs/benchmarks.md, "A faster build").
+// torus 15.1 s, 10.7 s (docs/bake.md, "A faster build").
 #pragma once
 
 #include <optional>

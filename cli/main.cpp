@@ -80,7 +80,7 @@ bool asksForHelpOrVersion(int argc, char** argv) {
 // trim threshold) and serves large blocks by mmap, so the bake's refinement,
 // which frees and allocates millions of primitive lists, spent a tenth of
 // its time in page faults (1.2M triangles at 3 MiB: octree build 6.2 s,
-// 5.4 s with these; docs/benchmarks.md "A faster build"). Memory freed stays
+// 5.4 s with these; docs/bake.md "A faster build"). Memory freed stays
 // in the heap for the next list; the peak is unchanged.
 void keepFreedMemoryInTheHeap() {
   mallopt(M_MMAP_THRESHOLD, 32 << 20);  // the largest the allocator accepts

@@ -3,7 +3,7 @@
 // stb lays out the rows (its per-row filter choice) and libdeflate
 // compresses them: stb's own deflate took 0.21 s of the 1.2M bunny's bake
 // for its 1024 x 767 texture, 2.76 MB; libdeflate at level 6 takes 0.09 s
-// for 2.36 MB (docs/benchmarks.md, "A faster build"). Both are
+// for 2.36 MB (docs/bake.md, "A faster build"). Both are
 // deterministic and we never touch stb's global settings, so the bytes
 // depend only on the image.
 #include "core/image_io.h"

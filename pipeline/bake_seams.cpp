@@ -69,7 +69,7 @@ class BuiltAside {
 // the octree, as it was, the BVH raised the 1.2M bunny's peak from 458 to
 // 585 MB and the 7.2M torus's from 1.43 to 2.18 GB, and that fresh memory
 // cost more wall time than the build now adds, alone on every core
-// (docs/benchmarks.md, "A faster build").
+// (docs/bake.md, "A faster build").
 class CasterBuiltWhenAsked final : public RayCaster {
  public:
   void prepare(std::string what, std::function<Result<std::unique_ptr<RayCaster>>()> make) {
@@ -166,7 +166,7 @@ Result<Bake> bakeApo(const Scan& detail, const Scan& coarse, const Checked<BakeO
   // triangles in Morton order when the list follows no order in space
   // (shuffled by some tool): the error metric reads M's triangles cell by
   // cell and the rays go out in M's order, and the 1.2M bunny shuffled took
-  // 20% longer (docs/benchmarks.md, "A faster build").
+  // 20% longer (docs/bake.md, "A faster build").
   const double spread = faceOrderSpread(detail);
   const bool needsNormals = detail.isMesh() && detail.points.normals.size() != detail.points.size();
   const bool reorder = spread > kShuffledFaceOrder;
