@@ -13,7 +13,17 @@
 #include <algorithm>
 #include <cstdint>
 #include <memory>
+#include <utility>
 #include <vector>
+
+// The coder's arithmetic on model state is exempt from the fuzzers' coverage
+// tracing: there its comparisons are of probabilities, not of the file's
+// structure, and tracing them took most of each fuzz execution.
+#if defined(__clang__)
+#define APO_LAZ_UNTRACED __attribute__((no_sanitize("coverage")))
+#else
+#define APO_LAZ_UNTRACED
+#endif
 
 namespace apo::laz {
 
@@ -31,7 +41,7 @@ class BitModel {
   BitModel() { reset(); }
 
   // Back to equiprobable, with frequent updates (a new chunk).
-  void reset() {
+  APO_LAZ_UNTRACED void reset() {
     bit0Count_ = 1;
     bitCount_ = 2;
     bit0Probability_ = 1U << (kBitLengthShift - 1);
@@ -42,7 +52,7 @@ class BitModel {
   friend class ArithmeticDecoder;
   friend class ArithmeticEncoder;
 
-  void update() {
+  APO_LAZ_UNTRACED void update() {
     // Halve the counts when they reach the limit.
     if ((bitCount_ += updateCycle_) > kBitMaxCount) {
       bitCount_ = (bitCount_ + 1) >> 1;
@@ -80,7 +90,7 @@ class SymbolModel {
   }
 
   // Back to all symbols equally likely (a new chunk).
-  void reset() {
+  APO_LAZ_UNTRACED void reset() {
     totalCount_ = 0;
     updateCycle_ = symbols_;
     std::fill(symbolCount_, symbolCount_ + symbols_, 1U);
@@ -92,7 +102,7 @@ class SymbolModel {
   friend class ArithmeticDecoder;
   friend class ArithmeticEncoder;
 
-  void update() {
+  APO_LAZ_UNTRACED void update() {
     // Halve the counts when their total reaches the limit.
     if ((totalCount_ += updateCycle_) > kSymbolMaxCount) {
       totalCount_ = 0;
@@ -127,18 +137,23 @@ class SymbolModel {
 };
 
 // Symbol models that LASzip creates only when a context first needs them
-// (one per previous value of a byte, say): each is reset on its first use
-// after startChunk(), which is what LASzip's "create or re-initialise" at
-// every chunk amounts to, and keeps its memory from chunk to chunk.
+// (one per previous value of a byte, say): each is made on its first use and
+// reset on its first use after startChunk(), which is what LASzip's "create
+// or re-initialise" at every chunk amounts to, and keeps its memory from
+// chunk to chunk. A chunk (COPC's are small) pays only for the models it uses.
 class LazySymbolModels {
  public:
-  LazySymbolModels(std::size_t count, std::uint32_t symbols) : symbols_(symbols), models_(count), resetIn_(count, 0) {}
+  // `count` models of `symbols` symbols each.
+  LazySymbolModels(std::size_t count, std::uint32_t symbols) : LazySymbolModels(std::vector(count, symbols)) {}
+  // One model per entry, of that many symbols.
+  explicit LazySymbolModels(std::vector<std::uint32_t> symbols)
+      : symbols_(std::move(symbols)), models_(symbols_.size()), resetIn_(symbols_.size(), 0) {}
 
   void startChunk() { ++chunk_; }
 
   SymbolModel& operator[](std::size_t i) {
     if (resetIn_[i] != chunk_) {
-      if (!models_[i]) models_[i] = std::make_unique<SymbolModel>(symbols_);
+      if (!models_[i]) models_[i] = std::make_unique<SymbolModel>(symbols_[i]);
       else models_[i]->reset();
       resetIn_[i] = chunk_;
     }
@@ -146,7 +161,7 @@ class LazySymbolModels {
   }
 
  private:
-  std::uint32_t symbols_;
+  std::vector<std::uint32_t> symbols_;
   std::uint64_t chunk_ = 1;
   std::vector<std::unique_ptr<SymbolModel>> models_;
   std::vector<std::uint64_t> resetIn_;
@@ -170,7 +185,7 @@ class ArithmeticDecoder {
   // The next byte the decoder would read.
   const std::uint8_t* position() const { return at_; }
 
-  std::uint32_t decodeBit(BitModel& m) {
+  APO_LAZ_UNTRACED std::uint32_t decodeBit(BitModel& m) {
     const std::uint32_t x = m.bit0Probability_ * (length_ >> kBitLengthShift);
     const std::uint32_t bit = value_ >= x;
     if (bit == 0) {
@@ -185,7 +200,7 @@ class ArithmeticDecoder {
     return bit;
   }
 
-  std::uint32_t decodeSymbol(SymbolModel& m) {
+  APO_LAZ_UNTRACED std::uint32_t decodeSymbol(SymbolModel& m) {
     std::uint32_t symbol, x, y = length_;
     if (m.decoderTable_) {
       // A table look-up, then a bisection between its bounds.
@@ -228,7 +243,7 @@ class ArithmeticDecoder {
   }
 
   // Raw bits (no model): 1 to 32 of them.
-  std::uint32_t readBits(std::uint32_t bits) {
+  APO_LAZ_UNTRACED std::uint32_t readBits(std::uint32_t bits) {
     if (bits > 19) {
       const std::uint32_t low = readShort();
       return (readBits(bits - 16) << 16) | low;
@@ -238,7 +253,7 @@ class ArithmeticDecoder {
     if (length_ < kMinLength) renormalize();
     return value;
   }
-  std::uint32_t readShort() {
+  APO_LAZ_UNTRACED std::uint32_t readShort() {
     const std::uint32_t value = value_ / (length_ >>= 16);
     value_ -= length_ * value;
     if (length_ < kMinLength) renormalize();
@@ -260,7 +275,7 @@ class ArithmeticDecoder {
     return 0;
   }
 
-  void renormalize() {
+  APO_LAZ_UNTRACED void renormalize() {
     do value_ = (value_ << 8) | nextByte();
     while ((length_ <<= 8) < kMinLength);
   }
@@ -302,26 +317,24 @@ class IntegerModels {
       correctorMin = INT32_MIN;
       correctorMax = INT32_MAX;
     }
-    kModels_.reserve(contexts);
-    for (std::uint32_t i = 0; i < contexts; ++i) kModels_.emplace_back(correctorBits + 1);
-    correctorModels_.reserve(correctorBits);
-    for (std::uint32_t i = 1; i <= correctorBits; ++i) correctorModels_.emplace_back(1U << std::min(i, bitsHigh));
-    // Constructed models are fresh for the first chunk.
-    kModelsResetIn_.assign(kModels_.size(), chunk_);
-    correctorModelsResetIn_.assign(correctorModels_.size(), chunk_);
+    kModels_ = LazySymbolModels(contexts, correctorBits + 1);
+    std::vector<std::uint32_t> correctorSymbols;
+    for (std::uint32_t k = 1; k <= correctorBits; ++k) correctorSymbols.push_back(1U << std::min(k, bitsHigh));
+    correctorModels_ = LazySymbolModels(std::move(correctorSymbols));
   }
 
   // All models back to their start (a new chunk). The symbol models are
-  // reset on their first use after this: a small chunk (COPC's) uses few of
-  // the dozens an integer coder has.
+  // made or reset on their first use after this: a small chunk (COPC's) uses
+  // few of the dozens an integer coder has.
   void reset() {
-    ++chunk_;
+    kModels_.startChunk();
+    correctorModels_.startChunk();
     corrector0.reset();
   }
 
   // The model of k in a context, and of a k-bit corrector's high bits.
-  SymbolModel& kModel(std::uint32_t context) { return fresh(kModels_, kModelsResetIn_, context); }
-  SymbolModel& correctorModel(std::uint32_t k) { return fresh(correctorModels_, correctorModelsResetIn_, k - 1); }
+  SymbolModel& kModel(std::uint32_t context) { return kModels_[context]; }
+  SymbolModel& correctorModel(std::uint32_t k) { return correctorModels_[k - 1]; }
 
   std::uint32_t bitsHigh;
   std::uint32_t correctorBits = 0, correctorRange = 0;
@@ -329,20 +342,8 @@ class IntegerModels {
   BitModel corrector0;  // k = 0: the corrector is 0 or 1
 
  private:
-  // Models_[i] reset if this chunk has not used it yet.
-  SymbolModel& fresh(std::vector<SymbolModel>& models, std::vector<std::uint64_t>& resetIn, std::size_t i) {
-    if (resetIn[i] != chunk_) {
-      models[i].reset();
-      resetIn[i] = chunk_;
-    }
-    return models[i];
-  }
-
-  std::uint64_t chunk_ = 1;  // models whose resetIn is behind it start afresh
-  std::vector<SymbolModel> kModels_;
-  std::vector<std::uint64_t> kModelsResetIn_;
-  std::vector<SymbolModel> correctorModels_;  // [k - 1] for k = 1 .. correctorBits
-  std::vector<std::uint64_t> correctorModelsResetIn_;
+  LazySymbolModels kModels_{0, 0};
+  LazySymbolModels correctorModels_{0, 0};  // [k - 1] for k = 1 .. correctorBits
 };
 
 // LASzip's IntegerCompressor, decoding side.

@@ -102,9 +102,7 @@ void checkItemDecodable(const Item& item, std::uint16_t compressor, std::size_t 
   if (layeredType != (compressor == kLayeredChunked))
     fail("byte {}: LASzip VLR item {}: {} cannot be coded by compressor {} ({})", at, index, itemName(type), compressor,
          compressorName(compressor));
-  const bool decodable =
-      layeredType ? makeLayeredItemDecoder(item) != nullptr : makePointwiseItemDecoder(item) != nullptr;
-  if (!decodable)
+  if (!decodable(item, layeredType))
     fail("byte {}: LASzip VLR item {}: {} version {} is not supported (versions {})", at + 4, index, itemName(type),
          item.version, layeredType ? "3" : "1 and 2");
 }

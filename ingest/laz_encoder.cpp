@@ -28,7 +28,6 @@ class PointwiseItemEncoder {
 
 namespace {
 
-constexpr std::size_t kVlrHeaderSize = 54;
 constexpr std::uint16_t kLaszipRecordId = 22204;
 constexpr std::uint16_t kCompressorChunked = 2;
 // The LASzip release whose encoding this is (LASzip 3.4r3; compressor 2

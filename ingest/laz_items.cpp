@@ -985,38 +985,46 @@ std::string_view itemName(std::uint16_t type) {
   return "unknown";
 }
 
+bool decodable(const Item& item, bool layered) {
+  switch (item.type) {
+    case ItemType::Point10:
+    case ItemType::GpsTime11:
+    case ItemType::Rgb12:
+    case ItemType::Byte: return !layered && (item.version == 1 || item.version == 2);
+    case ItemType::Point14:
+    case ItemType::Rgb14:
+    case ItemType::RgbNir14:
+    case ItemType::Byte14: return layered && item.version == 3;
+    default: return false;
+  }
+}
+
 std::unique_ptr<PointwiseItemDecoder> makePointwiseItemDecoder(const Item& item) {
-  const bool v1 = item.version == 1, v2 = item.version == 2;
+  if (!decodable(item, false)) return nullptr;
+  const bool v1 = item.version == 1;
   switch (item.type) {
     case ItemType::Point10:
       if (v1) return std::make_unique<Point10V1>();
-      if (v2) return std::make_unique<Point10V2>();
-      break;
+      return std::make_unique<Point10V2>();
     case ItemType::GpsTime11:
       if (v1) return std::make_unique<GpsTime11V1>();
-      if (v2) return std::make_unique<GpsTime11V2>();
-      break;
+      return std::make_unique<GpsTime11V2>();
     case ItemType::Rgb12:
       if (v1) return std::make_unique<Rgb12V1>();
-      if (v2) return std::make_unique<Rgb12V2>();
-      break;
-    case ItemType::Byte:
+      return std::make_unique<Rgb12V2>();
+    default:
       if (v1) return std::make_unique<ByteV1>(item.size);
-      if (v2) return std::make_unique<ByteV2>(item.size);
-      break;
-    default: break;
+      return std::make_unique<ByteV2>(item.size);
   }
-  return nullptr;
 }
 
 std::unique_ptr<LayeredItemDecoder> makeLayeredItemDecoder(const Item& item) {
-  if (item.version != 3) return nullptr;
+  if (!decodable(item, true)) return nullptr;
   switch (item.type) {
     case ItemType::Point14: return std::make_unique<Point14V3>();
     case ItemType::Rgb14: return std::make_unique<Rgb14V3>();
     case ItemType::RgbNir14: return std::make_unique<RgbNir14V3>();
-    case ItemType::Byte14: return std::make_unique<Byte14V3>(item.size);
-    default: return nullptr;
+    default: return std::make_unique<Byte14V3>(item.size);
   }
 }
 

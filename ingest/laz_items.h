@@ -54,8 +54,14 @@ class PointwiseItemDecoder {
   virtual void decode(ArithmeticDecoder& decoder, std::uint8_t* out) = 0;
 };
 
-// Null when LASzip has no such item and version for compressors 1 and 2
-// (POINT10, GPSTIME11, RGB12 and BYTE, versions 1 and 2).
+// Whether we decode the item's type and version: for compressors 1 and 2
+// (pointwise) POINT10, GPSTIME11, RGB12 and BYTE, versions 1 and 2; for
+// compressor 3 (layered) POINT14, RGB14, RGBNIR14 and BYTE14 version 3.
+// Cheap, unlike building the decoder, whose models a BYTE item of 65,535
+// bytes makes by the thousand.
+bool decodable(const Item& item, bool layered);
+
+// Null unless decodable(item, false).
 std::unique_ptr<PointwiseItemDecoder> makePointwiseItemDecoder(const Item& item);
 
 // One item of compressor 3 (LAS 1.4 layered chunks): its fields are split in
@@ -75,7 +81,7 @@ class LayeredItemDecoder {
   virtual bool overran() const = 0;
 };
 
-// Null unless the item is POINT14, RGB14, RGBNIR14 or BYTE14 version 3.
+// Null unless decodable(item, true).
 std::unique_ptr<LayeredItemDecoder> makeLayeredItemDecoder(const Item& item);
 
 }  // namespace apo::laz
