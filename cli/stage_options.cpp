@@ -72,6 +72,10 @@ void addIngestOptions(CLI::App& app, IngestArguments& arguments) {
   app.add_option("--outlier-k", o.outlierNeighbours, "Neighbours for outlier statistics")->capture_default_str();
   app.add_option("--outlier-std", o.outlierStdDevs, "Keep points within mean + this many std-devs")->capture_default_str();
   app.add_option("--voxel", o.voxelSize, "Voxel downsampling size in scan units (0: off)")->capture_default_str();
+  app.add_option("--max-scan-points", o.maxScanPoints,
+                 "A binary PLY or LAS point file above this many points is read a run at a time into at most this "
+                 "many voxel centroids (0: always read whole)")
+      ->capture_default_str();
   app.add_flag("!--no-normals", o.estimateNormals, "Do not estimate normals for point clouds without them");
   app.add_option("--normal-k", o.normalNeighbours, "Neighbours for normal estimation (0: chosen from the data)")
       ->capture_default_str();

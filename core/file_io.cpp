@@ -5,6 +5,7 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <cerrno>
 #include <cstring>
@@ -83,6 +84,23 @@ Result<std::string> readFileBytes(const fs::path& path) {
   in.read(bytes.data(), static_cast<std::streamsize>(size));
   if (static_cast<std::uintmax_t>(in.gcount()) != size)
     return badInput("{}: read {} of {} bytes", path.string(), in.gcount(), size);
+  return bytes;
+}
+
+Result<std::string> readFileRange(const fs::path& path, std::uint64_t offset, std::size_t length) {
+  APO_RETURN_IF_ERROR(checkReadableFile(path));
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return badInput("{}: cannot be opened: {}", path.string(), describeErrno(errno));
+  std::error_code ec;
+  const auto size = fs::file_size(path, ec);
+  if (ec) return badInput("{}: cannot read its size: {}", path.string(), ec.message());
+  if (offset >= size) return std::string();
+  const auto wanted = static_cast<std::size_t>(std::min<std::uintmax_t>(length, size - offset));
+  std::string bytes(wanted, '\0');
+  in.seekg(static_cast<std::streamoff>(offset));
+  in.read(bytes.data(), static_cast<std::streamsize>(wanted));
+  if (static_cast<std::size_t>(in.gcount()) != wanted)
+    return badInput("{}: read {} of the {} bytes from byte {}", path.string(), in.gcount(), wanted, offset);
   return bytes;
 }
 

@@ -6,6 +6,8 @@
 
 #include "core/error.h"
 
+#include <cstddef>
+#include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <iosfwd>
@@ -17,6 +19,11 @@ namespace apo {
 // Reads a whole regular file. Errors (BadInput) name the path and say whether
 // it is missing, a directory, unreadable or shorter than its reported size.
 Result<std::string> readFileBytes(const std::filesystem::path& path);
+
+// Up to `length` bytes of a file from byte `offset` (fewer where the file
+// ends first): a file too large to hold is read a range at a time. Errors
+// as readFileBytes's.
+Result<std::string> readFileRange(const std::filesystem::path& path, std::uint64_t offset, std::size_t length);
 
 // Checks that `path` names a readable regular file without reading it.
 Status checkReadableFile(const std::filesystem::path& path);

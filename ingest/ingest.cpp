@@ -8,6 +8,7 @@
 #include "core/timing.h"
 #include "ingest/cleaning.h"
 #include "ingest/face_orientation.h"
+#include "ingest/large_scan.h"
 #include "ingest/mesh_input.h"
 #include "ingest/normals.h"
 #include "ingest/range_grid.h"
@@ -51,6 +52,9 @@ std::string orientationMethodName(OrientationMethod method) {
   return method == OrientationMethod::CgalMst ? "mst" : "propagation";
 }
 
+// Fewer voxel centroids than this would be no scan worth reconstructing.
+constexpr std::uint64_t kMinScanPoints = 1000;
+
 template <>
 Result<Checked<IngestOptions>> check(const IngestOptions& options) {
   if (options.outlierNeighbours < 1) return usageError("--outlier-k must be at least 1, got {}", options.outlierNeighbours);
@@ -61,6 +65,9 @@ Result<Checked<IngestOptions>> check(const IngestOptions& options) {
     return usageError("--sensor must be three finite numbers");
   if (options.normalNeighbours < 0 || options.normalNeighbours == 1 || options.normalNeighbours == 2)
     return usageError("--normal-k must be 0 (automatic) or at least 3, got {}", options.normalNeighbours);
+  if (options.maxScanPoints != 0 && options.maxScanPoints < kMinScanPoints)
+    return usageError("--max-scan-points must be 0 (read whole) or at least {}, got {}", kMinScanPoints,
+                      options.maxScanPoints);
   return Checked<IngestOptions>(options);
 }
 
@@ -519,6 +526,48 @@ nlohmann::ordered_json stationsJson(const IngestReport& report) {
   return stations;
 }
 
+// The scan as read, or, for a point file above --max-scan-points that can be
+// read a run at a time, its voxel centroids (large_scan.h).
+Result<Scan> readLargeOrWhole(const fs::path& path, ScanFormat format, const IngestOptions& options,
+                              IngestReport& report) {
+  // Records take 12 bytes at least (three floats): a smaller file cannot hold more points.
+  std::error_code sizeError;
+  const auto bytes = fs::file_size(path, sizeError);
+  if (options.maxScanPoints == 0 || sizeError || bytes / 12 <= options.maxScanPoints) return readScan(path, format);
+  auto file = large_scan::openRecordFile(path, format);
+  if (!file) return file.error();
+  if (!*file || (*file)->layout.count <= options.maxScanPoints) return readScan(path, format);
+  const std::uint64_t total = (*file)->layout.count;
+  spdlog::info("ingest: {} holds {} points, above --max-scan-points {}: read a run at a time into voxel centroids",
+               path.string(), total, options.maxScanPoints);
+  Stopwatch watch;
+  double lastLine = 0.0;
+  auto progress = [&](std::uint64_t read, std::uint64_t all) {
+    const double seconds = watch.seconds();
+    if (read < all && seconds - lastLine < 5.0) return;
+    lastLine = seconds;
+    spdlog::info("ingest: read {} of {} points ({:.0f}%), about {:.0f} s left", read, all, 100.0 * read / all,
+                 seconds * (all - read) / std::max<std::uint64_t>(read, 1));
+  };
+  auto subsample = large_scan::voxelSubsample(**file, options.maxScanPoints, large_scan::kChunkPoints, progress);
+  if (!subsample) return subsample.error();
+  IngestReport::LargeScan& large = report.largeScan;
+  large.subsampled = true;
+  large.pointsInFile = subsample->pointsRead;
+  large.nonFinite = subsample->nonFinite;
+  large.kept = subsample->scan.points.size();
+  large.limit = options.maxScanPoints;
+  large.voxelSize = subsample->voxelSize;
+  large.runs = subsample->runs;
+  large.coarsenings = subsample->coarsenings;
+  Scan scan = std::move(subsample->scan);
+  scan.readNotes.push_back(fmt::format(
+      "{} points read in {} runs into {} voxel centroids (voxel {:g}; --max-scan-points {}); {} with a non-finite "
+      "coordinate dropped; normals, colours and intensities averaged per voxel, other attributes not kept",
+      large.pointsInFile, large.runs, large.kept, large.voxelSize, large.limit, large.nonFinite));
+  return scan;
+}
+
 }  // namespace
 
 Result<IngestResult> ingestScan(const fs::path& path, const Checked<IngestOptions>& checkedOptions) {
@@ -534,7 +583,7 @@ Result<IngestResult> ingestScan(const fs::path& path, const Checked<IngestOption
   report.format = formatName(*format);
 
   Stopwatch readWatch;
-  auto read = readScan(path, *format);
+  auto read = readLargeOrWhole(path, *format, options, report);
   if (!read) return read.error();
   scan = std::move(read).value();
   report.readSeconds = readWatch.seconds();
@@ -547,7 +596,7 @@ Result<IngestResult> ingestScan(const fs::path& path, const Checked<IngestOption
   report.origin = scan.origin;
   report.readNotes = scan.readNotes;
   for (const std::string& note : scan.readNotes) spdlog::info("ingest: {}: {}", path.string(), note);
-  report.pointsIn = scan.points.size();
+  report.pointsIn = report.largeScan.subsampled ? report.largeScan.pointsInFile : scan.points.size();
   report.trianglesIn = scan.triangles.size();
   spdlog::info("ingest: read {} points, {} triangles from {} ({}) in {:.2f} s", report.pointsIn, report.trianglesIn,
                path.string(), report.format, report.readSeconds);
@@ -620,6 +669,15 @@ std::string ingestReportJson(const IngestReport& report) {
                              {"refused", sensor.refused.empty() ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(sensor.refused)},
                              {"agreement", !sensor.checked ? nlohmann::ordered_json(nullptr) : agreementJson(sensor)}};
   json["scan_positions"] = stationsJson(report);
+  const auto& large = report.largeScan;
+  json["large_scan"] = !large.subsampled ? nlohmann::ordered_json(nullptr)
+                                         : nlohmann::ordered_json{{"points_in_file", large.pointsInFile},
+                                                                  {"non_finite", large.nonFinite},
+                                                                  {"voxel_centroids", large.kept},
+                                                                  {"max_scan_points", large.limit},
+                                                                  {"voxel_size", large.voxelSize},
+                                                                  {"runs", large.runs},
+                                                                  {"coarsenings", large.coarsenings}};
   if (report.hasViewpoint) {
     const auto& q = report.viewpoint.orientationWxyz;
     json["viewpoint"] = {{"origin", vectorJson(report.viewpoint.origin)}, {"orientation_wxyz", {q[0], q[1], q[2], q[3]}}};

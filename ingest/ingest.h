@@ -83,6 +83,12 @@ struct IngestOptions {
   // Organised clouds (depth frames) are triangulated on their grid
   // (docs/ingest.md); false: read as loose points.
   bool triangulateGrid = true;
+  // A point file of more points than this whose points are fixed-size
+  // records (binary PLY, uncompressed LAS) is read a run at a time into at
+  // most this many voxel centroids, in memory bounded by them (docs/ingest.md,
+  // "Large scans"); 0: always read whole.
+  std::uint64_t maxScanPoints = kDefaultMaxScanPoints;
+  static constexpr std::uint64_t kDefaultMaxScanPoints = 10'000'000;
 };
 
 // Usage error naming the option when one is out of range.
@@ -158,6 +164,16 @@ struct IngestReport {
   };
   std::vector<StationGrid> stationGrids;
   std::vector<ScanStation> stations;  // multi-scan files' scan positions, as read
+  // Scans above --max-scan-points: read a run at a time into voxel centroids.
+  struct LargeScan {
+    bool subsampled = false;
+    std::uint64_t pointsInFile = 0;    // the header's count, all read
+    std::uint64_t nonFinite = 0;       // of them, with a non-finite coordinate
+    std::uint64_t kept = 0;            // voxel centroids kept
+    std::uint64_t limit = 0;           // --max-scan-points
+    double voxelSize = 0.0;            // file units
+    std::uint64_t runs = 0, coarsenings = 0;
+  } largeScan;
   std::array<double, 3> origin = {0.0, 0.0, 0.0};  // Scan::origin: the local frame
   std::vector<std::string> readNotes;               // what the reader skipped or converted
   double readSeconds = 0.0;

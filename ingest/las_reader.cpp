@@ -19,6 +19,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <string>
 #include <vector>
 
@@ -218,6 +219,30 @@ Scan readLas(std::string_view bytes) {
                                 kFormatSize[header.format]));
   scan.readNotes.insert(scan.readNotes.begin(), notes.begin(), notes.end());
   return scan;
+}
+
+std::optional<RecordLayout> lasRecordLayout(std::string_view head) {
+  try {
+    if (head.size() < kHeaderSize12 || head.size() < read<std::uint32_t>(head, 96, "offset to point data"))
+      return std::nullopt;
+    const Header header = parseHeader(head);
+    if (header.compressed || header.pointCount == 0) return std::nullopt;
+    return RecordLayout{header.pointCount, header.pointOffset, header.recordLength};
+  } catch (const parse::ParseFailure&) {
+    return std::nullopt;  // the whole file's read says what is wrong, with the file's size known
+  }
+}
+
+Scan readLasRecords(std::string_view head, std::string_view records, const RecordLayout& layout) {
+  std::string file(head.substr(0, layout.recordsAt));
+  const std::uint64_t count = records.size() / layout.recordBytes;
+  // Both counts: the legacy one (0 beyond 32 bits, as LAS 1.4 writes it) and,
+  // from LAS 1.4, the 64-bit one.
+  const auto legacy = static_cast<std::uint32_t>(count > 0xFFFFFFFFU ? 0 : count);
+  std::memcpy(file.data() + 107, &legacy, sizeof legacy);
+  if (byteAt(file, 25) >= 4) std::memcpy(file.data() + 247, &count, sizeof count);
+  file += records;
+  return readLas(file);
 }
 
 std::string lasPointRecords(std::string_view bytes) {

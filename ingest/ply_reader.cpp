@@ -721,7 +721,64 @@ Scan readBody(const Header& header, Body& body) {
   return scan;
 }
 
+// Whether the element holds data: elements without properties hold none,
+// whatever their count.
+bool holdsData(const Element& element) { return element.count > 0 && !element.properties.empty(); }
+
+// The header with its vertex count set to `count` (the line rewritten, every
+// other byte as it was).
+std::string headerWithVertexCount(std::string_view head, std::uint64_t count) {
+  std::string rewritten;
+  parse::TextCursor cursor(head);
+  std::string_view line;
+  std::vector<std::string_view> tokens;
+  std::size_t lineStart = 0;
+  while (cursor.next(line)) {
+    const std::size_t lineEnd = cursor.offset();
+    parse::splitWhitespace(line, tokens);
+    if (tokens.size() == 3 && tokens[0] == "element" && tokens[1] == "vertex")
+      rewritten += fmt::format("element vertex {}", count) + std::string(head.substr(lineStart + line.size(), lineEnd - lineStart - line.size()));
+    else
+      rewritten += head.substr(lineStart, lineEnd - lineStart);
+    lineStart = lineEnd;
+  }
+  return rewritten;
+}
+
 }  // namespace
+
+std::optional<RecordLayout> plyRecordLayout(std::string_view head) {
+  if (head.find("end_header") == std::string_view::npos) return std::nullopt;
+  Header header;
+  VertexPlan plan;
+  try {
+    header = parseHeader(head);
+    plan = planVertices(header);
+  } catch (const parse::ParseFailure&) {
+    return std::nullopt;  // the whole file's read says what is wrong
+  }
+  if (header.encoding == Encoding::Ascii) return std::nullopt;
+  RecordLayout layout;
+  for (const Element& element : header.elements) {
+    if (&element == plan.element) break;
+    if (holdsData(element)) return std::nullopt;  // data before the vertices
+  }
+  for (const Element& element : header.elements)
+    if (&element != plan.element && holdsData(element)) return std::nullopt;  // faces or other data
+  for (const Property& property : plan.element->properties) {
+    if (property.isList()) return std::nullopt;
+    layout.recordBytes += byteSize(property.type);
+  }
+  layout.count = plan.element->count;
+  layout.recordsAt = header.afterHeader.offset();
+  return layout;
+}
+
+Scan readPlyRecords(std::string_view head, std::string_view records, const RecordLayout& layout) {
+  std::string file = headerWithVertexCount(head.substr(0, layout.recordsAt), records.size() / layout.recordBytes);
+  file += records;
+  return readPly(file);
+}
 
 Scan readPly(std::string_view bytes) {
   const Header header = parseHeader(bytes);

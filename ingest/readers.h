@@ -5,6 +5,8 @@
 
 #include "core/geometry.h"
 
+#include <cstdint>
+#include <optional>
 #include <string>
 #include <string_view>
 
@@ -24,6 +26,28 @@ std::string lasPointRecords(std::string_view bytes);
 // E57 (ASTM E2807) 1.0: every scan of the file, each a ScanStation, its
 // points moved by its pose into one frame (docs/ingest.md, "E57").
 Scan readE57(std::string_view bytes);
+
+// Files whose points are fixed-size records (binary PLY of vertices alone,
+// uncompressed LAS): a run of their records behind the file's header, its
+// count set to theirs, is a file of the same format, which its reader reads
+// with every check and attribute it has. A file too large to hold is read so,
+// a run at a time (docs/ingest.md, "Large scans").
+struct RecordLayout {
+  std::uint64_t count = 0;        // points in the file
+  std::uint64_t recordsAt = 0;    // byte of the first record: the header is [0, recordsAt)
+  std::uint64_t recordBytes = 0;  // bytes of each record
+};
+// The layout from the file's first bytes (they must hold its header), or
+// nullopt when its points cannot be read a run at a time (an ASCII or LAZ
+// body; a PLY with faces, list properties or elements before its vertices;
+// a header longer than `head`, or malformed: the whole file's read then says
+// what is wrong).
+std::optional<RecordLayout> plyRecordLayout(std::string_view head);
+std::optional<RecordLayout> lasRecordLayout(std::string_view head);
+// The scan of `records` (whole records of the file) given the file's header
+// `head` (bytes [0, layout.recordsAt)).
+Scan readPlyRecords(std::string_view head, std::string_view records, const RecordLayout& layout);
+Scan readLasRecords(std::string_view head, std::string_view records, const RecordLayout& layout);
 
 enum class PlyEncoding { Ascii, BinaryLittleEndian };
 // Local: float positions in the scan's frame, its origin in an apo_origin

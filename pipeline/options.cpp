@@ -19,7 +19,8 @@ Json ingestJson(const IngestOptions& o) {
           {"voxel", o.voxelSize},                     {"no-normals", !o.estimateNormals},
           {"normal-k", o.normalNeighbours},           {"force-normals", o.forceNormalEstimation},
           {"sensor", vectorOrNull(o.sensorPosition)}, {"orient", orientationMethodName(o.orientation)},
-          {"keep-winding", !o.orientFaces}, {"no-grid-mesh", !o.triangulateGrid}, {"mesh-input", meshInputName(o.meshInput)}};
+          {"keep-winding", !o.orientFaces}, {"no-grid-mesh", !o.triangulateGrid}, {"mesh-input", meshInputName(o.meshInput)},
+          {"max-scan-points", o.maxScanPoints}};
 }
 
 Json reconstructJson(const ReconstructOptions& o) {

@@ -940,6 +940,12 @@ std::string ingestDecisionRows(const Json* ingest) {
                     escaped(textAt(grid, {"sensor_from"})) + "), " + count(numberAt(grid, {"refused_triangles"})) +
                     " refused across depth jumps (edges over " + fixed(numberAt(grid, {"max_edge_in_spacings"}), 1) +
                     " ray spacings) or grazing");
+  if (const Json* large = at(ingest, {"large_scan"}); large != nullptr && large->is_object())
+    html += row("scan above --max-scan-points, read a run at a time into voxel centroids",
+                count(numberAt(large, {"points_in_file"})) + " points in the file, " +
+                    count(numberAt(large, {"voxel_centroids"})) + " centroids of voxels of " +
+                    fmt::format("{:g}", numberAt(large, {"voxel_size"}).value_or(0)) +
+                    " file units kept: M and the APO are made from them");
   html += sensorRows(ingest);
   if (const Json* faces = at(ingest, {"face_orientation"}); faces != nullptr && faces->is_object() &&
                                                              numberAt(faces, {"flipped_triangles"}).value_or(0) > 0)

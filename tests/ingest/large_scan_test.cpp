@@ -1,0 +1,232 @@
+// Scans above --max-scan-points (ingest/large_scan.h): runs of records read
+// as files of their own give the whole file's points; the voxel centroids
+// equal a brute-force grouping of every point at the voxel size found, which
+// is the finest power of two keeping at most the limit; the result does not
+// depend on the run length; a truncated file is refused with its byte.
+#include "core/file_io.h"
+#include "ingest/ingest.h"
+#include "ingest/large_scan.h"
+#include "ingest/readers.h"
+#include "tests/test_support.h"
+
+#include <nlohmann/json.hpp>
+
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <random>
+#include <string>
+
+namespace apo {
+namespace {
+namespace fs = std::filesystem;
+
+// Points on a wavy sheet with noise, far from zero (a georeferenced tile), with
+// normals, colours and intensities: the sheet keeps the voxels of a surface.
+Scan wavySheet(std::size_t count, std::uint64_t seed) {
+  std::mt19937_64 random(seed);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  Scan scan;
+  scan.origin = {500000.0, 4000000.0, 100.0};
+  for (std::size_t i = 0; i < count; ++i) {
+    const double x = 40.0 * unit(random), y = 30.0 * unit(random);
+    const double z = std::sin(x * 0.3) * std::cos(y * 0.2) + 0.01 * unit(random);
+    scan.points.positions.emplace_back(static_cast<float>(x - 20.0), static_cast<float>(y - 15.0), static_cast<float>(z));
+    scan.points.normals.emplace_back(0.0f, 0.0f, 1.0f);
+    scan.points.colors.push_back({static_cast<std::uint8_t>(i % 256), 128, 7});
+    scan.points.intensities.push_back(static_cast<float>(i % 1000));
+  }
+  return scan;
+}
+
+std::array<double, 3> world(const Scan& scan, std::size_t i) {
+  const Vec3f& p = scan.points.positions[i];
+  return {scan.origin[0] + p.x(), scan.origin[1] + p.y(), scan.origin[2] + p.z()};
+}
+
+using Key = std::array<std::int64_t, 3>;
+struct Sum {
+  std::array<double, 3> position{};
+  std::uint64_t count = 0;
+};
+
+// Every point of the scan grouped by voxel of `size`, brute force.
+std::map<Key, Sum> groupByVoxel(const Scan& scan, double size) {
+  std::map<Key, Sum> voxels;
+  for (std::size_t i = 0; i < scan.points.size(); ++i) {
+    const auto p = world(scan, i);
+    Sum& sum = voxels[{static_cast<std::int64_t>(std::floor(p[0] / size)), static_cast<std::int64_t>(std::floor(p[1] / size)),
+                       static_cast<std::int64_t>(std::floor(p[2] / size))}];
+    for (int axis = 0; axis < 3; ++axis) sum.position[axis] += p[axis];
+    ++sum.count;
+  }
+  return voxels;
+}
+
+large_scan::RecordFile open(const fs::path& path, ScanFormat format) {
+  auto file = large_scan::openRecordFile(path, format);
+  EXPECT_TRUE(file.ok()) << (file ? "" : file.error().message);
+  EXPECT_TRUE(file && file->has_value());
+  return **file;
+}
+
+class LargeScanTest : public ::testing::TestWithParam<ScanFormat> {
+ protected:
+  // The sheet written in the parameter's format (world coordinates in the file).
+  fs::path writeSheet(const Scan& scan) {
+    const fs::path dir = test::freshTempDir();
+    if (GetParam() == ScanFormat::Ply) {
+      const fs::path path = dir / "sheet.ply";
+      EXPECT_TRUE(writePly(path, scan, /*worldCoordinates=*/true).ok());
+      return path;
+    }
+    const fs::path path = dir / "sheet.las";
+    EXPECT_TRUE(writeLas(path, scan, /*compressed=*/false).ok());
+    return path;
+  }
+};
+
+TEST_P(LargeScanTest, RunsOfRecordsReadAsTheWholeFile) {
+  const Scan sheet = wavySheet(5000, 1);
+  const fs::path path = writeSheet(sheet);
+  const large_scan::RecordFile file = open(path, GetParam());
+  ASSERT_EQ(file.layout.count, 5000u);
+  auto whole = readScan(path, GetParam());
+  ASSERT_TRUE(whole.ok());
+  auto bytes = readFileBytes(path);
+  ASSERT_TRUE(bytes.ok());
+  std::size_t compared = 0;
+  for (std::uint64_t first = 0; first < 5000; first += 1700) {
+    const std::uint64_t count = std::min<std::uint64_t>(1700, 5000 - first);
+    const Scan run = file.readRecords(
+        file.head, std::string_view(*bytes).substr(file.layout.recordsAt + first * file.layout.recordBytes,
+                                                  count * file.layout.recordBytes),
+        file.layout);
+    ASSERT_EQ(run.points.size(), count);
+    for (std::size_t i = 0; i < count; ++i, ++compared) {
+      const auto a = world(run, i), b = world(*whole, first + i);
+      for (int axis = 0; axis < 3; ++axis) ASSERT_NEAR(a[axis], b[axis], 1e-3) << "point " << first + i;
+      ASSERT_EQ(run.points.colors[i], whole->points.colors[first + i]);
+      ASSERT_EQ(run.points.intensities[i], whole->points.intensities[first + i]);
+    }
+  }
+  EXPECT_EQ(compared, 5000u);
+}
+
+TEST_P(LargeScanTest, CentroidsAreEveryPointGroupedAtTheFinestVoxelWithinTheLimit) {
+  const Scan sheet = wavySheet(60000, 2);
+  const fs::path path = writeSheet(sheet);
+  auto whole = readScan(path, GetParam());
+  ASSERT_TRUE(whole.ok());
+  const std::uint64_t limit = 4000;
+  auto subsample = large_scan::voxelSubsample(open(path, GetParam()), limit, 7000, nullptr);
+  ASSERT_TRUE(subsample.ok()) << subsample.error().message;
+  EXPECT_EQ(subsample->pointsRead, 60000u);
+  EXPECT_EQ(subsample->nonFinite, 0u);
+  EXPECT_EQ(subsample->runs, 9u);
+  // The voxel is a power of two, within the limit, and the next finer one is not.
+  const double size = subsample->voxelSize;
+  EXPECT_EQ(std::exp2(std::round(std::log2(size))), size);
+  const auto voxels = groupByVoxel(*whole, size);
+  EXPECT_LE(voxels.size(), limit);
+  EXPECT_GT(groupByVoxel(*whole, size / 2).size(), limit);
+  // Each centroid is its voxel's, brute force.
+  ASSERT_EQ(subsample->scan.points.size(), voxels.size());
+  std::size_t i = 0;
+  for (const auto& [key, sum] : voxels) {
+    const auto centroid = world(subsample->scan, i++);
+    for (int axis = 0; axis < 3; ++axis)
+      ASSERT_NEAR(centroid[axis], sum.position[axis] / static_cast<double>(sum.count), 1e-3) << "voxel " << i;
+  }
+  // Averaged attributes: the sheet's normals (PLY holds them, LAS does not) all point up.
+  if (GetParam() == ScanFormat::Ply) {
+    ASSERT_EQ(subsample->scan.points.normals.size(), voxels.size());
+    EXPECT_GT(subsample->scan.points.normals.front().normalized().z(), 0.999f);
+  }
+  ASSERT_EQ(subsample->scan.points.colors.size(), voxels.size());
+}
+
+TEST_P(LargeScanTest, SameCentroidsWhateverTheRunLength) {
+  const fs::path path = writeSheet(wavySheet(30000, 3));
+  const large_scan::RecordFile file = open(path, GetParam());
+  auto a = large_scan::voxelSubsample(file, 3000, 1000, nullptr);
+  auto b = large_scan::voxelSubsample(file, 3000, 30000, nullptr);
+  ASSERT_TRUE(a.ok() && b.ok());
+  EXPECT_EQ(a->voxelSize, b->voxelSize);
+  EXPECT_EQ(a->scan.origin, b->scan.origin);
+  EXPECT_EQ(a->scan.points.positions, b->scan.points.positions);
+  EXPECT_EQ(a->scan.points.colors, b->scan.points.colors);
+}
+
+TEST_P(LargeScanTest, TruncatedFileIsRefusedWithItsByte) {
+  const fs::path path = writeSheet(wavySheet(3000, 4));
+  auto bytes = readFileBytes(path);
+  ASSERT_TRUE(bytes.ok());
+  const fs::path cut = path.parent_path() / ("cut" + path.extension().string());
+  test::writeBytes(cut, std::string_view(*bytes).substr(0, bytes->size() - 100));
+  auto subsample = large_scan::voxelSubsample(open(cut, GetParam()), 1000, 1000, nullptr);
+  ASSERT_FALSE(subsample.ok());
+  EXPECT_EQ(subsample.error().kind, ErrorKind::BadInput);
+  EXPECT_NE(subsample.error().message.find(cut.string()), std::string::npos);
+  EXPECT_NE(subsample.error().message.find("the file ends inside point record"), std::string::npos)
+      << subsample.error().message;
+}
+
+INSTANTIATE_TEST_SUITE_P(Formats, LargeScanTest, ::testing::Values(ScanFormat::Ply, ScanFormat::Las),
+                         [](const auto& info) { return formatName(info.param); });
+
+TEST(LargeScan, AsciiAndCompressedFilesAreReadWhole) {
+  const fs::path dir = test::freshTempDir();
+  const Scan sheet = wavySheet(100, 5);
+  ASSERT_TRUE(writePlyAscii(dir / "a.ply", sheet).ok());
+  ASSERT_TRUE(writeLas(dir / "a.laz", sheet, /*compressed=*/true).ok());
+  for (const auto& [name, format] : {std::pair{"a.ply", ScanFormat::Ply}, std::pair{"a.laz", ScanFormat::Las}}) {
+    auto file = large_scan::openRecordFile(dir / name, format);
+    ASSERT_TRUE(file.ok());
+    EXPECT_FALSE(file->has_value()) << name;
+  }
+}
+
+TEST(LargeScan, IngestReadsAScanAboveTheLimitIntoCentroidsAndSaysSo) {
+  const fs::path dir = test::freshTempDir();
+  ASSERT_TRUE(writePly(dir / "sheet.ply", wavySheet(20000, 6), true).ok());
+  IngestOptions options;
+  options.maxScanPoints = 1500;
+  auto result = ingestScan(dir / "sheet.ply", test::checked(options));
+  ASSERT_TRUE(result.ok()) << result.error().message;
+  const IngestReport& report = result->report;
+  EXPECT_TRUE(report.largeScan.subsampled);
+  EXPECT_EQ(report.pointsIn, 20000u);
+  EXPECT_EQ(report.largeScan.pointsInFile, 20000u);
+  EXPECT_LE(report.largeScan.kept, 1500u);
+  EXPECT_GT(report.largeScan.kept, 1500u / 4);  // a halving of a surface's voxels keeps about a quarter
+  EXPECT_LE(result->scan.points.size(), report.largeScan.kept);
+  const auto json = nlohmann::json::parse(ingestReportJson(report));
+  EXPECT_EQ(json["large_scan"]["points_in_file"], 20000);
+  EXPECT_EQ(json["large_scan"]["voxel_centroids"], report.largeScan.kept);
+  // Under the limit: read whole, no large_scan.
+  options.maxScanPoints = 20000;
+  auto whole = ingestScan(dir / "sheet.ply", test::checked(options));
+  ASSERT_TRUE(whole.ok());
+  EXPECT_FALSE(whole->report.largeScan.subsampled);
+  EXPECT_TRUE(nlohmann::json::parse(ingestReportJson(whole->report))["large_scan"].is_null());
+}
+
+TEST(LargeScan, LimitBelowAThousandIsAUsageError) {
+  IngestOptions options;
+  options.maxScanPoints = 999;
+  auto checked = check(options);
+  ASSERT_FALSE(checked.ok());
+  EXPECT_EQ(checked.error().kind, ErrorKind::Usage);
+  EXPECT_NE(checked.error().message.find("--max-scan-points"), std::string::npos);
+  options.maxScanPoints = 0;
+  EXPECT_TRUE(check(options).ok());
+}
+
+}  // namespace
+}  // namespace apo
