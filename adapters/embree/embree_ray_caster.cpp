@@ -7,6 +7,7 @@
 
 #include <embree3/rtcore.h>
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -70,22 +71,31 @@ class EmbreeCaster final : public RayCaster {
     RTCIntersectContext context;
     rtcInitIntersectContext(&context);
     context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-    std::vector<RTCRayHit> queries(rays.size());
-    for (std::size_t i = 0; i < rays.size(); ++i) queries[i] = embreeQuery(rays[i]);
-    rtcIntersect1M(scene_, &context, queries.data(), static_cast<unsigned>(queries.size()), sizeof(RTCRayHit));
-    for (std::size_t i = 0; i < rays.size(); ++i) {
-      const RTCRayHit& query = queries[i];
-      if (query.hit.geomID == RTC_INVALID_GEOMETRY_ID) continue;
-      RayHit& hit = hits[i];
-      hit.primitive = query.hit.primID;
-      hit.t = query.ray.tfar;
-      hit.u = query.hit.u;  // triangles: barycentrics; discs: Embree reports 0
-      hit.v = query.hit.v;
-      hit.geometricNormal = Vec3f(query.hit.Ng_x, query.hit.Ng_y, query.hit.Ng_z);
+    // In batches: Embree's stream call takes an unsigned count and crashed
+    // beyond about 27 million rays at once (a 100-million-point simulated
+    // scan's view); a batch's queries also stay small.
+    std::vector<RTCRayHit> queries;
+    for (std::size_t begin = 0; begin < rays.size(); begin += kBatchRays) {
+      const std::size_t end = std::min(rays.size(), begin + kBatchRays);
+      queries.resize(end - begin);
+      for (std::size_t i = begin; i < end; ++i) queries[i - begin] = embreeQuery(rays[i]);
+      rtcIntersect1M(scene_, &context, queries.data(), static_cast<unsigned>(queries.size()), sizeof(RTCRayHit));
+      for (std::size_t i = begin; i < end; ++i) {
+        const RTCRayHit& query = queries[i - begin];
+        if (query.hit.geomID == RTC_INVALID_GEOMETRY_ID) continue;
+        RayHit& hit = hits[i];
+        hit.primitive = query.hit.primID;
+        hit.t = query.ray.tfar;
+        hit.u = query.hit.u;  // triangles: barycentrics; discs: Embree reports 0
+        hit.v = query.hit.v;
+        hit.geometricNormal = Vec3f(query.hit.Ng_x, query.hit.Ng_y, query.hit.Ng_z);
+      }
     }
   }
 
  private:
+  static constexpr std::size_t kBatchRays = std::size_t{1} << 20;
+
   static RTCRayHit embreeQuery(const Ray& ray) {
     RTCRayHit query{};
     query.ray.org_x = ray.origin.x();
