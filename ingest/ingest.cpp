@@ -530,14 +530,11 @@ nlohmann::ordered_json stationsJson(const IngestReport& report) {
 // read a run at a time, its voxel centroids (large_scan.h).
 Result<Scan> readLargeOrWhole(const fs::path& path, ScanFormat format, const IngestOptions& options,
                               IngestReport& report) {
-  // Records take 12 bytes at least (three floats): a smaller file cannot hold more points.
-  std::error_code sizeError;
-  const auto bytes = fs::file_size(path, sizeError);
-  if (options.maxScanPoints == 0 || sizeError || bytes / 12 <= options.maxScanPoints) return readScan(path, format);
-  auto file = large_scan::openRecordFile(path, format);
+  if (options.maxScanPoints == 0) return readScan(path, format);
+  auto file = large_scan::openPointRuns(path, format);
   if (!file) return file.error();
-  if (!*file || (*file)->layout.count <= options.maxScanPoints) return readScan(path, format);
-  const std::uint64_t total = (*file)->layout.count;
+  if (!*file || (*file)->count <= options.maxScanPoints) return readScan(path, format);
+  const std::uint64_t total = (*file)->count;
   spdlog::info("ingest: {} holds {} points, above --max-scan-points {}: read a run at a time into voxel centroids",
                path.string(), total, options.maxScanPoints);
   Stopwatch watch;

@@ -19,11 +19,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// The voxels start at a power of two at or below D / (4 sqrt(maxPoints)),
-// D the diagonal of the file's first kStartPoints points: a surface of area
-// up to 16 D^2 (any scan whose first points span a fair part of it) keeps
-// more than maxPoints voxels there, so the voxels only coarsen, and few times.
-constexpr std::uint64_t kStartPoints = 65536;
 
 using VoxelKey = std::array<std::int64_t, 3>;
 
@@ -160,32 +155,70 @@ class VoxelGrid {
 
 // Records [first, first + count) of the file as a scan; BadInput when the
 // file ends early or the reader refuses them.
-Result<Scan> readRun(const RecordFile& file, std::uint64_t first, std::uint64_t count) {
-  const readers::RecordLayout& layout = file.layout;
+Result<Scan> readRecords(const fs::path& path, const std::string& head, const readers::RecordLayout& layout,
+                         ScanFormat format, std::uint64_t first, std::uint64_t count) {
   const std::uint64_t at = layout.recordsAt + first * layout.recordBytes;
-  auto bytes = readFileRange(file.path, at, static_cast<std::size_t>(count * layout.recordBytes));
+  auto bytes = readFileRange(path, at, static_cast<std::size_t>(count * layout.recordBytes));
   if (!bytes) return bytes.error();
   if (bytes->size() != count * layout.recordBytes)
-    return badInput("{}: byte {}: the file ends inside point record {} of the {} its header declares",
-                    file.path.string(), at + bytes->size(), first + bytes->size() / layout.recordBytes + 1, layout.count);
+    return badInput("{}: byte {}: the file ends inside point record {} of the {} its header declares", path.string(),
+                    at + bytes->size(), first + bytes->size() / layout.recordBytes + 1, layout.count);
   try {
-    return file.readRecords(file.head, *bytes, layout);
+    return format == ScanFormat::Ply ? readers::readPlyRecords(head, *bytes, layout)
+                                     : readers::readLasRecords(head, *bytes, layout);
   } catch (const parse::ParseFailure& failure) {
-    return badInput("{}: records {} to {}: {}", file.path.string(), first + 1, first + count, failure.what());
+    return badInput("{}: records {} to {}: {}", path.string(), first + 1, first + count, failure.what());
   }
 }
 
-// The starting voxel level (see kStartPoints), from a fixed number of the
-// file's first points, so that it, and so the result, does not depend on
-// the run length.
-Result<int> startLevel(const RecordFile& file, std::uint64_t maxPoints) {
-  auto run = readRun(file, 0, std::min(kStartPoints, file.layout.count));
-  if (!run) return run.error();
+// Runs of records read from disk, each as a file of its own.
+PointRuns recordRuns(const fs::path& path, std::string head, const readers::RecordLayout& layout, ScanFormat format) {
+  auto read = [path, head = std::move(head), layout, format](
+                  std::uint64_t runPoints, const std::function<void(Scan&)>& take) -> Result<std::vector<std::string>> {
+    std::vector<std::string> notes;
+    for (std::uint64_t first = 0; first < layout.count; first += runPoints) {
+      auto run = readRecords(path, head, layout, format, first, std::min(runPoints, layout.count - first));
+      if (!run) return run.error();
+      if (first == 0) notes = run->readNotes;
+      take(*run);
+    }
+    return notes;
+  };
+  return {path, layout.count, std::move(read)};
+}
+
+// A LAZ file held whole (compressed), its chunks decompressed a run at a time.
+PointRuns lazRuns(const fs::path& path, std::uint64_t count) {
+  auto read = [path](std::uint64_t runPoints,
+                     const std::function<void(Scan&)>& take) -> Result<std::vector<std::string>> {
+    auto bytes = readFileBytes(path);
+    if (!bytes) return bytes.error();
+    std::vector<std::string> notes;
+    try {
+      const std::string summary = readers::readLazRuns(*bytes, runPoints, [&](Scan& run) {
+        if (notes.empty()) notes = run.readNotes;
+        take(run);
+      });
+      notes.insert(notes.begin(), summary);
+    } catch (const parse::ParseFailure& failure) {
+      return badInput("{}: {}", path.string(), failure.what());
+    }
+    return notes;
+  };
+  return {path, count, std::move(read)};
+}
+
+// The starting voxel level: a power of two at or below D / (4 sqrt(maxPoints)),
+// D the diagonal of the file's first kStartPoints points. A surface of area
+// up to 16 D^2 (any scan whose first points span a fair part of it) occupies
+// more than maxPoints voxels at that level, so the voxels only coarsen, and
+// few times.
+int startLevel(const Scan& firstRun, std::uint64_t maxPoints) {
   std::array<double, 3> lo{}, hi{};
   lo.fill(std::numeric_limits<double>::infinity());
   hi.fill(-std::numeric_limits<double>::infinity());
-  forEachPoint(*run, [&](const std::array<double, 3>& p, std::size_t) {
-    if (!finite(p)) return;
+  forEachPoint(firstRun, [&](const std::array<double, 3>& p, std::size_t i) {
+    if (i >= kStartPoints || !finite(p)) return;
     for (int axis = 0; axis < 3; ++axis) {
       lo[axis] = std::min(lo[axis], p[axis]);
       hi[axis] = std::max(hi[axis], p[axis]);
@@ -199,42 +232,37 @@ Result<int> startLevel(const RecordFile& file, std::uint64_t maxPoints) {
 
 }  // namespace
 
-Result<std::optional<RecordFile>> openRecordFile(const fs::path& path, ScanFormat format) {
-  if (format != ScanFormat::Ply && format != ScanFormat::Las) return std::optional<RecordFile>();
+Result<std::optional<PointRuns>> openPointRuns(const fs::path& path, ScanFormat format) {
+  if (format != ScanFormat::Ply && format != ScanFormat::Las) return std::optional<PointRuns>();
   auto head = readFileRange(path, 0, kHeadBytes);
   if (!head) return head.error();
+  if (format == ScanFormat::Las)
+    if (const auto count = readers::lazPointCount(*head)) return std::optional<PointRuns>(lazRuns(path, *count));
   const auto layout = format == ScanFormat::Ply ? readers::plyRecordLayout(*head) : readers::lasRecordLayout(*head);
-  if (!layout || layout->recordBytes == 0) return std::optional<RecordFile>();
+  if (!layout || layout->recordBytes == 0) return std::optional<PointRuns>();
   head->resize(static_cast<std::size_t>(layout->recordsAt));
-  RecordFile file{path, *layout, std::move(*head),
-                  format == ScanFormat::Ply ? readers::readPlyRecords : readers::readLasRecords};
-  return std::optional<RecordFile>(std::move(file));
+  return std::optional<PointRuns>(recordRuns(path, std::move(*head), *layout, format));
 }
 
-Result<VoxelSubsample> voxelSubsample(const RecordFile& file, std::uint64_t maxPoints, std::uint64_t chunkPoints,
+Result<VoxelSubsample> voxelSubsample(const PointRuns& file, std::uint64_t maxPoints, std::uint64_t runPoints,
                                       const Progress& progress) {
-  auto level = startLevel(file, maxPoints);
-  if (!level) return level.error();
   VoxelSubsample result;
   std::optional<VoxelGrid> grid;
-  const std::uint64_t total = file.layout.count;
-  for (std::uint64_t first = 0; first < total; first += chunkPoints) {
-    auto run = readRun(file, first, std::min(chunkPoints, total - first));
-    if (!run) return run.error();
+  auto notes = file.read(std::max(runPoints, kStartPoints), [&](Scan& run) {
     if (!grid) {
-      const PointSet& points = run->points;
-      grid.emplace(*level, maxPoints,
+      const PointSet& points = run.points;
+      grid.emplace(startLevel(run, maxPoints), maxPoints,
                    Attributes{!points.normals.empty(), !points.colors.empty(), !points.intensities.empty()});
-      result.scan.readNotes = run->readNotes;
     }
-    grid->add(*run);
-    result.pointsRead += run->points.size();
+    grid->add(run);
+    result.pointsRead += run.points.size();
     ++result.runs;
-    if (progress) progress(result.pointsRead, total);
-  }
-  std::vector<std::string> notes = std::move(result.scan.readNotes);
+    if (progress) progress(result.pointsRead, file.count);
+  });
+  if (!notes) return notes.error();
+  if (!grid) return badInput("{}: no points", file.path.string());
   result.scan = grid->centroids();
-  result.scan.readNotes = std::move(notes);
+  result.scan.readNotes = std::move(*notes);
   result.voxelSize = grid->voxelSize();
   result.nonFinite = grid->nonFinite();
   result.coarsenings = grid->coarsenings();

@@ -18,6 +18,7 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace apo::large_scan {
 
@@ -28,18 +29,22 @@ inline constexpr std::size_t kHeadBytes = std::size_t{1} << 20;
 // Points read per run of records.
 inline constexpr std::uint64_t kChunkPoints = std::uint64_t{1} << 20;
 
-// A file read a run at a time: its layout, its header, and the reader of a
-// run of its records.
-struct RecordFile {
+// A point file read a run of points at a time.
+struct PointRuns {
   std::filesystem::path path;
-  readers::RecordLayout layout;
-  std::string head;  // bytes [0, layout.recordsAt)
-  std::function<Scan(std::string_view head, std::string_view records, const readers::RecordLayout&)> readRecords;
+  std::uint64_t count = 0;  // points its header declares
+  // Reads the file's points in order, in runs of at least `runPoints` (the
+  // last may hold fewer), handing each to `take`; returns the read notes
+  // (how the file was stored) or a BadInput error naming the file.
+  std::function<Result<std::vector<std::string>>(std::uint64_t runPoints, const std::function<void(Scan& run)>& take)>
+      read;
 };
 
-// The file as a RecordFile when its format and body allow (binary PLY of
-// vertices alone, uncompressed LAS), else nullopt.
-Result<std::optional<RecordFile>> openRecordFile(const std::filesystem::path& path, ScanFormat format);
+// The file as PointRuns when its format allows: binary PLY of vertices alone
+// and uncompressed LAS (runs of records read from disk, each as a file of its
+// own: readers.h, RecordLayout), LAZ (the compressed file held, its chunks
+// decompressed a run at a time); else nullopt.
+Result<std::optional<PointRuns>> openPointRuns(const std::filesystem::path& path, ScanFormat format);
 
 // Progress of the read: points read so far of the file's count.
 using Progress = std::function<void(std::uint64_t read, std::uint64_t total)>;
@@ -53,11 +58,13 @@ struct VoxelSubsample {
   std::uint64_t coarsenings = 0;    // times the voxels were halved while reading
 };
 
-// Reads every record of the file and keeps at most `maxPoints` voxel
-// centroids. Deterministic: the same file gives the same points whatever the
-// run length. BadInput when a run of records is malformed (the message names
-// the file and the byte).
-Result<VoxelSubsample> voxelSubsample(const RecordFile& file, std::uint64_t maxPoints, std::uint64_t chunkPoints,
+// Reads every point of the file and keeps at most `maxPoints` voxel
+// centroids. Runs hold at least kStartPoints points (runPoints is raised to
+// it), so that the starting voxel, and so the result, is the same whatever
+// the run length. BadInput when a run is malformed (the message names the
+// file and the byte).
+inline constexpr std::uint64_t kStartPoints = 65536;
+Result<VoxelSubsample> voxelSubsample(const PointRuns& file, std::uint64_t maxPoints, std::uint64_t runPoints,
                                       const Progress& progress);
 
 }  // namespace apo::large_scan

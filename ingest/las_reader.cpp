@@ -20,6 +20,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -243,6 +244,30 @@ Scan readLasRecords(std::string_view head, std::string_view records, const Recor
   if (byteAt(file, 25) >= 4) std::memcpy(file.data() + 247, &count, sizeof count);
   file += records;
   return readLas(file);
+}
+
+std::optional<std::uint64_t> lazPointCount(std::string_view head) {
+  try {
+    const Header header = parseHeader(head);
+    if (!header.compressed) return std::nullopt;
+    return header.pointCount;
+  } catch (const parse::ParseFailure&) {
+    return std::nullopt;
+  }
+}
+
+std::string readLazRuns(std::string_view file, std::uint64_t runPoints, const std::function<void(Scan& run)>& take) {
+  const Header header = parseHeader(file);
+  if (!header.compressed) fail("byte 104: point data format byte {}: not LAZ", byteAt(file, 104));
+  checkHasPoints(header);
+  // Each run's records behind the header, marked uncompressed, are a LAS file.
+  std::string head(file.substr(0, header.pointOffset));
+  head[104] = static_cast<char>(header.format);
+  const RecordLayout layout{header.pointCount, header.pointOffset, header.recordLength};
+  return laz::decompressPointsInRuns(file, lazLayout(header), runPoints, [&](std::string& records) {
+    Scan run = readLasRecords(head, records, layout);
+    take(run);
+  });
 }
 
 std::string lasPointRecords(std::string_view bytes) {

@@ -14,9 +14,12 @@
 #include <algorithm>
 #include <array>
 #include <cstring>
+#include <functional>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <span>
+#include <utility>
 #include <vector>
 
 namespace apo::laz {
@@ -404,26 +407,39 @@ std::string describe(const LaszipVlr& vlr, std::size_t chunks) {
 
 }  // namespace
 
-Decompressed decompressPoints(std::string_view file, const PointRecords& las) {
+std::string decompressPointsInRuns(std::string_view file, const PointRecords& las, std::uint64_t runPoints,
+                                   const std::function<void(std::string& records)>& take) {
   const LaszipVlr vlr = parseLaszipVlr(file, las);
-  if (las.pointCount == 0) return {{}, describe(vlr, 0)};
+  if (las.pointCount == 0) return describe(vlr, 0);
   const std::uint64_t dataBytes = file.size() - las.pointsAt;
   if (las.pointCount > kMostPointsPerByte * dataBytes)
     fail("byte {}: the header claims {} points, more than LASzip could code in the {} bytes of point data",
          las.pointCountAt, las.pointCount, dataBytes);
   std::string tableNote;
   const std::vector<Chunk> chunks = planChunks(file, las, vlr, tableNote);
-  Decompressed result;
-  result.summary = describe(vlr, chunks.size());
-  if (!tableNote.empty()) result.summary += "; " + tableNote;
-  result.records.reserve(std::min(las.pointCount * las.recordLength, kReservedBytesPerCompressedByte * dataBytes));
+  std::string summary = describe(vlr, chunks.size());
+  if (!tableNote.empty()) summary += "; " + tableNote;
+  const std::uint64_t runBytes = runPoints * las.recordLength;
+  std::string records;
+  records.reserve(std::min({las.pointCount * las.recordLength, runBytes, kReservedBytesPerCompressedByte * dataBytes}));
   PointDecoder decoder(vlr, las.recordLength);
   std::size_t sequentialAt = las.pointsAt + 8;
   for (std::size_t i = 0; i < chunks.size(); ++i) {
     Chunk chunk = chunks[i];
     if (chunk.begin == Chunk::kAfterThePrevious) chunk.begin = sequentialAt;
-    sequentialAt = chunk.begin + decoder.decodeChunk(file, chunk, i, result.records);
+    sequentialAt = chunk.begin + decoder.decodeChunk(file, chunk, i, records);
+    if (records.size() >= runBytes || i + 1 == chunks.size()) {
+      take(records);
+      records.clear();
+    }
   }
+  return summary;
+}
+
+Decompressed decompressPoints(std::string_view file, const PointRecords& las) {
+  Decompressed result;
+  result.summary = decompressPointsInRuns(file, las, std::numeric_limits<std::uint64_t>::max() / las.recordLength,
+                                          [&](std::string& records) { result.records = std::move(records); });
   return result;
 }
 

@@ -24,6 +24,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <string_view>
 
@@ -49,5 +50,13 @@ struct Decompressed {
 // and the problem: no or a bad LASzip VLR (an unknown compressor, item type
 // or version), a count the file cannot hold, a truncated or corrupt chunk.
 Decompressed decompressPoints(std::string_view file, const PointRecords& las);
+
+// The same a run of whole chunks at a time, for files whose points are too
+// many to hold: `take` gets the records of each run of chunks holding at
+// least `runPoints` points (the last run may hold fewer), in order, and may
+// move them away. Returns the summary. Throws as decompressPoints does, after
+// the runs before the bad chunk were taken.
+std::string decompressPointsInRuns(std::string_view file, const PointRecords& las, std::uint64_t runPoints,
+                                   const std::function<void(std::string& records)>& take);
 
 }  // namespace apo::laz

@@ -6,6 +6,7 @@
 #include "core/geometry.h"
 
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -48,6 +49,15 @@ std::optional<RecordLayout> lasRecordLayout(std::string_view head);
 // `head` (bytes [0, layout.recordsAt)).
 Scan readPlyRecords(std::string_view head, std::string_view records, const RecordLayout& layout);
 Scan readLasRecords(std::string_view head, std::string_view records, const RecordLayout& layout);
+// LAZ files, whose records are decompressed a run of chunks at a time: the
+// header's count from the file's first bytes (nullopt when it is not LAZ or
+// the header does not read: the whole file's read then says why), and the
+// points of each run of whole chunks holding at least `runPoints` (the last
+// may hold fewer), each read as readLasRecords reads uncompressed records
+// and handed to `take`. Returns how the file was compressed (a read note).
+// Throws parse::ParseFailure as readLas does.
+std::optional<std::uint64_t> lazPointCount(std::string_view head);
+std::string readLazRuns(std::string_view file, std::uint64_t runPoints, const std::function<void(Scan& run)>& take);
 
 enum class PlyEncoding { Ascii, BinaryLittleEndian };
 // Local: float positions in the scan's frame, its origin in an apo_origin
