@@ -52,8 +52,10 @@ std::string orientationMethodName(OrientationMethod method) {
   return method == OrientationMethod::CgalMst ? "mst" : "propagation";
 }
 
-// Fewer voxel centroids than this would be no scan worth reconstructing.
+// Fewer voxel centroids than this would be no scan worth reconstructing;
+// more than this, no working set worth bounding (and beyond 32-bit indices).
 constexpr std::uint64_t kMinScanPoints = 1000;
+constexpr std::uint64_t kMaxScanPoints = 1'000'000'000;
 
 template <>
 Result<Checked<IngestOptions>> check(const IngestOptions& options) {
@@ -65,9 +67,9 @@ Result<Checked<IngestOptions>> check(const IngestOptions& options) {
     return usageError("--sensor must be three finite numbers");
   if (options.normalNeighbours < 0 || options.normalNeighbours == 1 || options.normalNeighbours == 2)
     return usageError("--normal-k must be 0 (automatic) or at least 3, got {}", options.normalNeighbours);
-  if (options.maxScanPoints != 0 && options.maxScanPoints < kMinScanPoints)
-    return usageError("--max-scan-points must be 0 (read whole) or at least {}, got {}", kMinScanPoints,
-                      options.maxScanPoints);
+  if (options.maxScanPoints != 0 && (options.maxScanPoints < kMinScanPoints || options.maxScanPoints > kMaxScanPoints))
+    return usageError("--max-scan-points must be 0 (read whole) or from {} to {}, got {}", kMinScanPoints,
+                      kMaxScanPoints, options.maxScanPoints);
   return Checked<IngestOptions>(options);
 }
 
