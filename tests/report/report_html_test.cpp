@@ -174,17 +174,21 @@ TEST(ReportHtml, ShowsTheDecisionsIngestTookOnItsOwn) {
   m["results"]["ingest"]["face_orientation"] = {{"pieces", 12}, {"flipped_pieces", 3}, {"flipped_triangles", 210455}};
   m["results"]["ingest"]["origin"] = {512000.0, 5403000.0, 300.0};
   m["results"]["ingest"]["read_notes"] = {"element 'edge' (2 items) skipped <b>"};
+  m["results"]["ingest"]["large_scan"] = {{"points_in_file", 100024484}, {"voxel_centroids", 8967129},
+                                          {"voxel_size", 0.0009765625}};
   const std::string html = qaReportHtml(m);
   EXPECT_THAT(html, HasSubstr("computed_from_faces, oriented by faces"));
   EXPECT_THAT(html, HasSubstr("scans (12 pieces, 87% of the vertices within 3 edge lengths of another piece)"));
   EXPECT_THAT(html, HasSubstr("210,455 triangles in 3 pieces"));
   EXPECT_THAT(html, HasSubstr("[512000.0,5403000.0,300.0]"));
   EXPECT_THAT(html, HasSubstr("element &#39;edge&#39; (2 items) skipped &lt;b&gt;"));
+  EXPECT_THAT(html, HasSubstr("100,024,484 points in the file, 8,967,129 centroids of voxels of 0.000976562 file units"));
   // Nothing decided, nothing said.
   const std::string plain = qaReportHtml(succeededManifest("bunny.ply", 1));
   EXPECT_THAT(plain, Not(HasSubstr("mesh read as")));
   EXPECT_THAT(plain, Not(HasSubstr("flipped")));
   EXPECT_THAT(plain, Not(HasSubstr("local frame origin")));
+  EXPECT_THAT(plain, Not(HasSubstr("voxel centroids")));
 }
 
 // A point scan's figures against its own points sit beside those against
