@@ -531,7 +531,7 @@ nlohmann::ordered_json stationsJson(const IngestReport& report) {
 // The scan as read, or, for a point file above --max-scan-points that can be
 // read a run at a time, its voxel centroids (large_scan.h).
 Result<Scan> readLargeOrWhole(const fs::path& path, ScanFormat format, const IngestOptions& options,
-                              IngestReport& report) {
+                              IngestReport& report, const ProgressCallback& readFraction) {
   if (options.maxScanPoints == 0) return readScan(path, format);
   auto file = large_scan::openPointRuns(path, format);
   if (!file) return file.error();
@@ -542,6 +542,7 @@ Result<Scan> readLargeOrWhole(const fs::path& path, ScanFormat format, const Ing
   Stopwatch watch;
   double lastLine = 0.0;
   auto progress = [&](std::uint64_t read, std::uint64_t all) {
+    if (readFraction) readFraction(static_cast<double>(read) / static_cast<double>(all));
     const double seconds = watch.seconds();
     if (read < all && seconds - lastLine < 5.0) return;
     lastLine = seconds;
@@ -569,7 +570,8 @@ Result<Scan> readLargeOrWhole(const fs::path& path, ScanFormat format, const Ing
 
 }  // namespace
 
-Result<IngestResult> ingestScan(const fs::path& path, const Checked<IngestOptions>& checkedOptions) {
+Result<IngestResult> ingestScan(const fs::path& path, const Checked<IngestOptions>& checkedOptions,
+                                const ProgressCallback& readFraction) {
   const IngestOptions& options = *checkedOptions;
   Stopwatch total;
   IngestResult result;
@@ -582,7 +584,7 @@ Result<IngestResult> ingestScan(const fs::path& path, const Checked<IngestOption
   report.format = formatName(*format);
 
   Stopwatch readWatch;
-  auto read = readLargeOrWhole(path, *format, options, report);
+  auto read = readLargeOrWhole(path, *format, options, report, readFraction);
   if (!read) return read.error();
   scan = std::move(read).value();
   report.readSeconds = readWatch.seconds();

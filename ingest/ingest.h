@@ -8,6 +8,7 @@
 #include "core/error.h"
 #include "core/geometry.h"
 #include "core/ray_caster.h"
+#include "core/timing.h"
 
 #include <array>
 #include <cstdint>
@@ -188,8 +189,10 @@ struct IngestResult {
 
 // Reads, validates and cleans `path`, and estimates and orients normals when
 // the scan is a point cloud without them. Fails with BadInput when the file is
-// malformed or nothing remains after cleaning.
-Result<IngestResult> ingestScan(const std::filesystem::path& path, const Checked<IngestOptions>& options);
+// malformed or nothing remains after cleaning. `readFraction` hears the share
+// of the file read, for scans read a run at a time (docs/ingest.md, "Large scans").
+Result<IngestResult> ingestScan(const std::filesystem::path& path, const Checked<IngestOptions>& options,
+                                const ProgressCallback& readFraction = {});
 
 // ingest.json text (pretty-printed, stable key order) for a report.
 std::string ingestReportJson(const IngestReport& report);

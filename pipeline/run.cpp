@@ -109,7 +109,8 @@ class Run {
     std::error_code ignored;
     manifest_["input"]["sha256"] = *digest;
     manifest_["input"]["bytes"] = fs::file_size(settings_.input, ignored);
-    auto ingested = ingestScan(settings_.input, partOf(settings_.options, &RunOptions::ingest));
+    // A scan read a run at a time says how much is read: most of its ingest.
+    auto ingested = ingestScan(settings_.input, partOf(settings_.options, &RunOptions::ingest), reportFraction());
     if (!ingested) return ingested.error();
     data_.scan = std::move(ingested->scan);
     manifest_["results"]["ingest"] = Json::parse(ingestReportJson(ingested->report));
