@@ -10,6 +10,7 @@
 #include <cerrno>
 #include <cstring>
 #include <fstream>
+#include <limits>
 #include <memory>
 #include <random>
 #include <sstream>
@@ -74,17 +75,7 @@ Status checkReadableFile(const fs::path& path) {
 }
 
 Result<std::string> readFileBytes(const fs::path& path) {
-  APO_RETURN_IF_ERROR(checkReadableFile(path));
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return badInput("{}: cannot be opened: {}", path.string(), describeErrno(errno));
-  std::error_code ec;
-  const auto size = fs::file_size(path, ec);
-  if (ec) return badInput("{}: cannot read its size: {}", path.string(), ec.message());
-  std::string bytes(size, '\0');
-  in.read(bytes.data(), static_cast<std::streamsize>(size));
-  if (static_cast<std::uintmax_t>(in.gcount()) != size)
-    return badInput("{}: read {} of {} bytes", path.string(), in.gcount(), size);
-  return bytes;
+  return readFileRange(path, 0, std::numeric_limits<std::size_t>::max());
 }
 
 Result<std::string> readFileRange(const fs::path& path, std::uint64_t offset, std::size_t length) {
