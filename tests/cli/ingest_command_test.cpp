@@ -54,6 +54,34 @@ TEST(IngestCommand, FourBillionVerticesInASmallFile) {
   expectRejected("huge.ply", binaryPlyHeader("4000000000") + std::string(24, '\0'), "4000000000");
 }
 
+// Above --max-scan-points the scan is read a run at a time into at most that
+// many voxel centroids; ingest.json says how many points the file held.
+TEST(IngestCommand, ScanAboveMaxScanPointsIsReadIntoVoxelCentroids) {
+  const fs::path dir = test::freshTempDir();
+  std::string body;
+  for (int i = 0; i < 60; ++i)
+    for (int j = 0; j < 50; ++j) {
+      const float p[3] = {0.01f * static_cast<float>(i), 0.01f * static_cast<float>(j), 0.0f};
+      body.append(reinterpret_cast<const char*>(p), sizeof p);
+    }
+  test::writeBytes(dir / "grid.ply", binaryPlyHeader("3000") + body);
+  const auto result = test::runApo(fmt::format("ingest '{}' -o '{}' --max-scan-points 1000 --no-normals",
+                                               (dir / "grid.ply").string(), (dir / "out").string()));
+  ASSERT_EQ(result.exitCode, 0) << result.output;
+  std::ifstream in(dir / "out" / "ingest.json");
+  const auto json = nlohmann::json::parse(in);
+  EXPECT_EQ(json["large_scan"]["points_in_file"], 3000);
+  EXPECT_EQ(json["counts"]["points_in"], 3000);
+  EXPECT_LE(json["large_scan"]["voxel_centroids"].get<int>(), 1000);
+  EXPECT_GE(json["large_scan"]["voxel_centroids"].get<int>(), 250);
+  EXPECT_EQ(json["counts"]["points_out"], json["large_scan"]["voxel_centroids"]);
+  // Out of range: a usage error before anything is read.
+  const auto refused = test::runApo(fmt::format("ingest '{}' -o '{}' --max-scan-points 10", (dir / "grid.ply").string(),
+                                                (dir / "out2").string()));
+  EXPECT_EQ(refused.exitCode, 1) << refused.output;
+  EXPECT_THAT(refused.output, HasSubstr("--max-scan-points"));
+}
+
 TEST(IngestCommand, FaceIndexOutOfRange) {
   expectRejected("face.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n", "out of range");
 }
