@@ -73,7 +73,7 @@ void addIngestOptions(CLI::App& app, IngestArguments& arguments) {
   app.add_option("--outlier-std", o.outlierStdDevs, "Keep points within mean + this many std-devs")->capture_default_str();
   app.add_option("--voxel", o.voxelSize, "Voxel downsampling size in scan units (0: off)")->capture_default_str();
   app.add_option("--max-scan-points", o.maxScanPoints,
-                 "A binary PLY or LAS point file above this many points is read a run at a time into at most this "
+                 "A binary PLY, LAS or LAZ point file above this many points is read a run at a time into at most this "
                  "many voxel centroids (0: always read whole)")
       ->capture_default_str();
   app.add_flag("!--no-normals", o.estimateNormals, "Do not estimate normals for point clouds without them");

@@ -84,10 +84,10 @@ struct IngestOptions {
   // Organised clouds (depth frames) are triangulated on their grid
   // (docs/ingest.md); false: read as loose points.
   bool triangulateGrid = true;
-  // A point file of more points than this whose points are fixed-size
-  // records (binary PLY, uncompressed LAS) is read a run at a time into at
-  // most this many voxel centroids, in memory bounded by them (docs/ingest.md,
-  // "Large scans"); 0: always read whole.
+  // A point file of more points than this (binary PLY of vertices alone,
+  // LAS, LAZ) is read a run at a time into at most this many voxel
+  // centroids, in memory bounded by them (docs/ingest.md, "Large scans");
+  // 0: always read whole.
   std::uint64_t maxScanPoints = kDefaultMaxScanPoints;
   static constexpr std::uint64_t kDefaultMaxScanPoints = 10'000'000;
 };
