@@ -136,7 +136,7 @@ class VoxelGrid {
   void add(const Scan& run) {
     const PointSet& points = run.points;
     forEachPoint(run, [&](const std::array<double, 3>& p, std::size_t i) {
-      if (!finite(p)) {
+      if (!finite(p) || !keyable(p)) {
         ++nonFinite_;
         return;
       }
@@ -182,6 +182,13 @@ class VoxelGrid {
   }
 
  private:
+  // Whether the point's voxel key fits in 62 bits: a coordinate that far
+  // (10^38 in a corrupt file) counts with the non-finite ones.
+  bool keyable(const std::array<double, 3>& p) const {
+    const double limit = std::ldexp(voxelSize(), 62);
+    return std::abs(p[0]) < limit && std::abs(p[1]) < limit && std::abs(p[2]) < limit;
+  }
+
   VoxelKey keyOf(const std::array<double, 3>& p) const {
     const double size = voxelSize();
     return {static_cast<std::int64_t>(std::floor(p[0] / size)), static_cast<std::int64_t>(std::floor(p[1] / size)),

@@ -53,7 +53,8 @@ struct VoxelSubsample {
   Scan scan;                        // the voxels' centroids, in voxel order; the file's first run's read notes
   double voxelSize = 0.0;           // in the file's units, a power of two
   std::uint64_t pointsRead = 0;     // records read
-  std::uint64_t nonFinite = 0;      // of them, dropped for a non-finite coordinate
+  std::uint64_t nonFinite = 0;      // of them, dropped for a non-finite coordinate (or one
+                                    // beyond 2^62 voxels, as only a corrupt file has)
   std::uint64_t runs = 0;           // runs of records read
   std::uint64_t coarsenings = 0;    // times the voxels were halved while reading
 };

@@ -188,6 +188,24 @@ TEST(LargeScan, AsciiPlyAndPlyMeshesAreReadWhole) {
   }
 }
 
+// A coordinate of 10^38 (a corrupt file) after the first points has no voxel
+// key in 64 bits: it is counted with the non-finite points, not cast into one.
+TEST(LargeScan, AFarOutlierIsCountedNotKeyed) {
+  Scan sheet = wavySheet(large_scan::kStartPoints + 2000, 7);
+  sheet.origin = {0.0, 0.0, 0.0};
+  sheet.points.positions.emplace_back(1e38f, 0.0f, 0.0f);
+  sheet.points.normals.emplace_back(0.0f, 0.0f, 1.0f);
+  sheet.points.colors.push_back({});
+  sheet.points.intensities.push_back(0.0f);
+  const fs::path path = test::freshTempDir() / "far.ply";
+  ASSERT_TRUE(writePly(path, sheet).ok());
+  auto subsample = large_scan::voxelSubsample(open(path), 1000, 1000, nullptr);
+  ASSERT_TRUE(subsample.ok()) << subsample.error().message;
+  EXPECT_EQ(subsample->pointsRead, large_scan::kStartPoints + 2001);
+  EXPECT_EQ(subsample->nonFinite, 1u);
+  EXPECT_LE(subsample->scan.points.size(), 1000u);
+}
+
 TEST(LargeScan, IngestReadsAScanAboveTheLimitIntoCentroidsAndSaysSo) {
   const fs::path dir = test::freshTempDir();
   ASSERT_TRUE(writePly(dir / "sheet.ply", wavySheet(20000, 6), true).ok());
