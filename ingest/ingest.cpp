@@ -549,7 +549,7 @@ Result<Scan> readLargeOrWhole(const fs::path& path, ScanFormat format, const Ing
     spdlog::info("ingest: read {} of {} points ({:.0f}%), about {:.0f} s left", read, all, 100.0 * read / all,
                  seconds * (all - read) / std::max<std::uint64_t>(read, 1));
   };
-  auto subsample = large_scan::voxelSubsample(**file, options.maxScanPoints, large_scan::kChunkPoints, progress);
+  auto subsample = large_scan::voxelSubsample(**file, options.maxScanPoints, large_scan::kRunPoints, progress);
   if (!subsample) return subsample.error();
   IngestReport::LargeScan& large = report.largeScan;
   large.subsampled = true;

@@ -4,8 +4,6 @@
 #include "ingest/parse_util.h"
 #include "ingest/positions.h"
 
-#include <fmt/format.h>
-
 #include <algorithm>
 #include <array>
 #include <bit>

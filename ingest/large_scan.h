@@ -26,8 +26,8 @@ namespace apo::large_scan {
 // a LAS header and its variable-length records longer than this are read
 // whole, as smaller files are.
 inline constexpr std::size_t kHeadBytes = std::size_t{1} << 20;
-// Points read per run of records.
-inline constexpr std::uint64_t kChunkPoints = std::uint64_t{1} << 20;
+// Points read per run.
+inline constexpr std::uint64_t kRunPoints = std::uint64_t{1} << 20;
 
 // A point file read a run of points at a time.
 struct PointRuns {

@@ -736,10 +736,10 @@ std::string headerWithVertexCount(std::string_view head, std::uint64_t count) {
   while (cursor.next(line)) {
     const std::size_t lineEnd = cursor.offset();
     parse::splitWhitespace(line, tokens);
-    if (tokens.size() == 3 && tokens[0] == "element" && tokens[1] == "vertex")
-      rewritten += fmt::format("element vertex {}", count) + std::string(head.substr(lineStart + line.size(), lineEnd - lineStart - line.size()));
-    else
-      rewritten += head.substr(lineStart, lineEnd - lineStart);
+    const bool vertexLine = tokens.size() == 3 && tokens[0] == "element" && tokens[1] == "vertex";
+    // The line's end (its newline, and a carriage return before it) is kept either way.
+    rewritten += vertexLine ? fmt::format("element vertex {}", count) : std::string(line);
+    rewritten += head.substr(lineStart + line.size(), lineEnd - lineStart - line.size());
     lineStart = lineEnd;
   }
   return rewritten;
@@ -758,13 +758,10 @@ std::optional<RecordLayout> plyRecordLayout(std::string_view head) {
     return std::nullopt;  // the whole file's read says what is wrong
   }
   if (header.encoding == Encoding::Ascii) return std::nullopt;
-  RecordLayout layout;
-  for (const Element& element : header.elements) {
-    if (&element == plan.element) break;
-    if (holdsData(element)) return std::nullopt;  // data before the vertices
-  }
+  // The vertices must be the only data: no faces, nothing before or after them.
   for (const Element& element : header.elements)
-    if (&element != plan.element && holdsData(element)) return std::nullopt;  // faces or other data
+    if (&element != plan.element && holdsData(element)) return std::nullopt;
+  RecordLayout layout;
   for (const Property& property : plan.element->properties) {
     if (property.isList()) return std::nullopt;
     layout.recordBytes += byteSize(property.type);

@@ -81,8 +81,9 @@ class LargeScanTest : public ::testing::TestWithParam<std::string> {
   // The sheet written in the parameter's format (world coordinates in the file).
   fs::path writeSheet(const Scan& scan) {
     const fs::path path = test::freshTempDir() / ("sheet." + GetParam());
-    if (GetParam() == "ply") EXPECT_TRUE(writePly(path, scan, /*worldCoordinates=*/true).ok());
-    else EXPECT_TRUE(writeLas(path, scan, /*compressed=*/GetParam() == "laz").ok());
+    const bool written = GetParam() == "ply" ? writePly(path, scan, /*worldCoordinates=*/true).ok()
+                                             : writeLas(path, scan, /*compressed=*/GetParam() == "laz").ok();
+    EXPECT_TRUE(written);
     return path;
   }
 };
@@ -109,7 +110,9 @@ TEST_P(LargeScanTest, RunsReadAsTheWholeFile) {
   ASSERT_TRUE(notes.ok()) << notes.error().message;
   EXPECT_EQ(compared, 120000u);
   EXPECT_EQ(runs, GetParam() == "laz" ? 3u : 4u);
-  if (GetParam() == "laz") EXPECT_NE(notes->front().find("decompressed from LAZ"), std::string::npos);
+  if (GetParam() == "laz") {
+    EXPECT_NE(notes->front().find("decompressed from LAZ"), std::string::npos);
+  }
 }
 
 TEST_P(LargeScanTest, CentroidsAreEveryPointGroupedAtTheFinestVoxelWithinTheLimit) {
