@@ -20,6 +20,7 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -57,6 +58,9 @@ struct BakeOptions {
   // APO texture (which the budget counts).
   TextureLayout layout = TextureLayout::Apo;
   int n3Size = 2;
+  // > 0: M's points are baked brick by brick, the bricks being the cells of
+  // this depth that hold m (docs/bake.md, "Bricks"); 0: in one piece.
+  int brickDepth = 0;
 };
 
 struct BakePhaseSeconds {
@@ -85,6 +89,19 @@ struct N3TreeReport {
   double seconds = 0.0;
 };
 
+// How a bake in bricks went (bakeInBricks).
+struct BrickReport {
+  int depth = 0;
+  std::uint64_t bricks = 0;               // cells of the brick depth holding m
+  std::uint64_t refinementRuns = 0;       // bricks' builds, retries included
+  std::uint64_t recordedCells = 0;        // the metric's errors the whole tree's build read back
+  std::uint64_t largestBrickPoints = 0;   // the most points one brick loaded (its margin included)
+  std::uint64_t pointsLoaded = 0;         // over every brick and pass
+  double marginWorld = 0.0;               // the margin a brick loads around its cell (sampling)
+  std::uint64_t discsWiderThanReach = 0;  // discs whose radius exceeds `reach`: see docs/bake.md, "Bricks"
+  double areaSeconds = 0, refineSeconds = 0, sampleSeconds = 0;
+};
+
 struct BakeReport {
   std::string detailKind;  // "mesh" or "points"
   std::uint64_t detailPrimitives = 0, coarseTriangles = 0;
@@ -99,6 +116,7 @@ struct BakeReport {
   std::uint32_t textureWidth = 0, textureHeight = 0;
   std::uint64_t textureBytes = 0;
   std::optional<N3TreeReport> n3tree;
+  std::optional<BrickReport> bricks;
   BakePhaseSeconds seconds;
   double totalSeconds = 0;
   std::uint64_t peakMemoryBytes = 0;
@@ -150,6 +168,37 @@ Status validateBakeInputs(const Scan& detail, const Scan& coarse);
 // the fraction done.
 Result<Bake> bakeWith(const DetailSurface& detail, const CoarseSurface& coarse, const Checked<BakeOptions>& options,
                       const ProgressCallback& onProgress = {});
+
+// ---- Baking in bricks (docs/bake.md, "Bricks") ----------------------------
+
+// What a brick of M's points needs from the libraries: its rays' caster,
+// its closest-point finder, and each point's area (its share of the
+// surface), as the bake in one piece takes them.
+struct BrickSearch {
+  std::unique_ptr<RayCaster> caster;
+  std::unique_ptr<ClosestPointFinder> closest;
+  std::vector<float> areas;
+};
+
+// M's points, read a box at a time: a scan too large to hold, or a file's
+// cells. `pointsIn` gives the points inside a box (world coordinates, bounds
+// included), in M's order, with unit normals; `areasOf` each point's area
+// among the points given; `searchOver` all three over the points given.
+struct BrickedPoints {
+  std::uint64_t count = 0;
+  std::function<Result<PointSet>(const Aabb& box)> pointsIn;
+  std::function<Result<std::vector<float>>(const PointSet& points)> areasOf;
+  std::function<Result<BrickSearch>(const PointSet& points)> searchOver;
+};
+
+// The bake of M's points brick by brick (options.brickDepth > 0): only one
+// brick's points and search structures are held at a time. The splits are
+// those of the bake in one piece (each brick's build records the metric's
+// errors, and the whole tree is built from the records), and the leaves are
+// sampled brick by brick; the .apo is the one-piece bake's wherever every
+// disc and neighbourhood a brick needs lies inside its margin (docs/bake.md).
+Result<Bake> bakeInBricks(const BrickedPoints& detail, const CoarseSurface& coarse, const Checked<BakeOptions>& options,
+                          const ProgressCallback& onProgress = {});
 
 std::string bakeReportJson(const BakeReport& report);  // bake.json, format_version 2
 

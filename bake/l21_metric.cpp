@@ -269,4 +269,48 @@ int sumDepthFor(const DetailPrimitives& detail, const BuildSettings& settings) {
   return depth > settings.coarseDepth ? depth : 0;
 }
 
+CellId cellIdOf(const Cell& cell) {
+  // Centres and widths are exact in float down to depth 16 (dyadic).
+  const Vec3f corner = cell.lower() / cell.width;
+  const int x = static_cast<int>(std::lround(corner.x())), y = static_cast<int>(std::lround(corner.y())),
+            z = static_cast<int>(std::lround(corner.z()));
+  return (static_cast<CellId>(cell.depth) << kCellIdDepthShift) | gridKey(x, y, z, cell.depth);
+}
+
+CellId ancestorId(CellId cell, int depth) {
+  const int own = static_cast<int>(cell >> kCellIdDepthShift);
+  const auto xyz = gridCoordinates(cell & ((CellId{1} << kCellIdDepthShift) - 1), own);
+  const int up = own - depth;
+  return (static_cast<CellId>(depth) << kCellIdDepthShift) | gridKey(xyz[0] >> up, xyz[1] >> up, xyz[2] >> up, depth);
+}
+
+void RecordedErrors::add(std::vector<std::pair<CellId, LeafError>> found) {
+  found.reserve(found.size() + cells_.size());
+  for (std::size_t i = 0; i < cells_.size(); ++i) found.emplace_back(cells_[i], errors_[i]);
+  std::sort(found.begin(), found.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  cells_.clear();
+  errors_.clear();
+  for (const auto& [cell, error] : found) {
+    if (!cells_.empty() && cells_.back() == cell) continue;
+    cells_.push_back(cell);
+    errors_.push_back(error);
+  }
+}
+
+const LeafError* RecordedErrors::find(CellId cell) const {
+  const auto at = std::lower_bound(cells_.begin(), cells_.end(), cell);
+  return at != cells_.end() && *at == cell ? &errors_[static_cast<std::size_t>(at - cells_.begin())] : nullptr;
+}
+
+std::optional<CellId> pointCellId(const Vec3f& p, int depth) {
+  if (!insideUnitCube({p, p})) return std::nullopt;
+  constexpr float kCells = static_cast<float>(1u << kPointKeyDepth);
+  // As pointKey grids it, so that the cell's run of PointOrder holds the point.
+  const auto grid = [&](float x) {
+    return static_cast<int>(static_cast<std::uint32_t>(std::max(std::ceil(x * kCells) - 1.0f, 0.0f)) >>
+                            (kPointKeyDepth - depth));
+  };
+  return (static_cast<CellId>(depth) << kCellIdDepthShift) | gridKey(grid(p.x()), grid(p.y()), grid(p.z()), depth);
+}
+
 }  // namespace apo::octree

@@ -22,6 +22,7 @@
 #include <cstdint>
 #include <limits>
 #include <numbers>
+#include <optional>
 #include <span>
 #include <utility>
 #include <vector>
@@ -236,6 +237,45 @@ struct LeafError {
     return ranked() <= area * squaredRadians(kNegligibleDegrees) ||
            (deferToCoarse && coarse <= area * squaredRadians(kCoarseExactDegrees));
   }
+};
+
+// A cell of any depth by its depth and grid coordinates.
+using CellId = std::uint64_t;
+inline constexpr int kCellIdDepthShift = 58;  // above a depth-16 grid key's 48 bits
+CellId cellIdOf(const Cell& cell);
+// The cell of depth `depth` (at most the cell's) holding it.
+CellId ancestorId(CellId cell, int depth);
+// The cell of depth `depth` whose run of PointOrder holds a point (unit-cube
+// coordinates; a point on a face goes to the lower cell); none outside the cube.
+std::optional<CellId> pointCellId(const Vec3f& p, int depth);
+
+// The L2,1 metric's errors of cells, as one build found them and another
+// reads them back (the bake in bricks, docs/bake.md "Bricks"): each brick's
+// build over its own points records the errors of the cells inside the
+// brick, and the build of the whole tree takes them from the records, never
+// from M, and so makes the splits the build over all of M would.
+class RecordedErrors {
+ public:
+  // Sorted by cell, each cell once (a cell's error is the same however
+  // often it was found).
+  void add(std::vector<std::pair<CellId, LeafError>> found);
+  const LeafError* find(CellId cell) const;
+  std::size_t size() const { return cells_.size(); }
+
+ private:
+  std::vector<CellId> cells_;
+  std::vector<LeafError> errors_;
+};
+
+// What a build records or reads back beside the metric (none by default).
+struct ErrorExchange {
+  // Recording: the errors the metric gives cells inside `within` go to `recorded`.
+  const Cell* within = nullptr;
+  std::vector<std::pair<CellId, LeafError>>* recorded = nullptr;
+  // Reading back: errors come from `replay` (the DetailPrimitives given are
+  // then empty); the cells it lacks go to `missing`, with a zero error.
+  const RecordedErrors* replay = nullptr;
+  std::vector<CellId>* missing = nullptr;
 };
 
 // A leaf's error from its sums. `withCoarse`: m's normals are known;

@@ -118,8 +118,9 @@ class MetricEvaluator {
   // `points`: M's points in order, when M is points. `sumDepth`: the depth
   // of FineSums' cells (leaves above it carry theirs), 0 when none.
   MetricEvaluator(const CoarseMesh& coarse, const DetailPrimitives& detail, const PointOrder* points,
-                  const BuildSettings& settings, int sumDepth)
-      : coarse_(coarse), detail_(detail), points_(points), settings_(settings), sumDepth_(sumDepth) {}
+                  const BuildSettings& settings, int sumDepth, const ErrorExchange& exchange)
+      : coarse_(coarse), detail_(detail), points_(points), settings_(settings), sumDepth_(sumDepth),
+        exchange_(exchange) {}
 
   // The coarse cells, their errors computed in parallel (from their fine
   // cells' sums, below which M's triangles are then clipped, when the sum
@@ -179,14 +180,40 @@ class MetricEvaluator {
   // M's fine sums, which only the splitting needed.
   void release() { fineSums_ = {}; }
 
+  // The errors recorded and the cells missed, handed to the exchange.
+  void handOver() {
+    if (exchange_.recorded)
+      for (auto& found : found_) exchange_.recorded->insert(exchange_.recorded->end(), found.begin(), found.end());
+    if (exchange_.missing) {
+      for (auto& missed : missing_) exchange_.missing->insert(exchange_.missing->end(), missed.begin(), missed.end());
+      std::sort(exchange_.missing->begin(), exchange_.missing->end());
+      exchange_.missing->erase(std::unique(exchange_.missing->begin(), exchange_.missing->end()), exchange_.missing->end());
+    }
+  }
+
  private:
   LeafError errorOf(const Leaf& leaf) const {
-    if (points_)
-      return leafErrorOf(points_->sumsOf(leaf.points), detail_.coarseKnown, settings_.deferToCoarse, mayBeTwoSided(leaf.cell));
+    if (points_) return pointsError(leaf.cell, leaf.points);
     if (leaf.fine)
       return leafErrorOf(leaf.fine->sumsOf(leaf.fineRun), detail_.coarseKnown, settings_.deferToCoarse,
                          mayBeTwoSided(leaf.cell));
     return errorInCell(detail_, leaf.primitives, leaf.cell, settings_.deferToCoarse, mayBeTwoSided(leaf.cell));
+  }
+
+  // The error of M's points in a cell (recorded when the exchange asks), or
+  // the one recorded for it by an earlier build (zero when none was).
+  LeafError pointsError(const Cell& cell, KeyRun run) const {
+    if (exchange_.replay) {
+      const CellId id = cellIdOf(cell);
+      if (const LeafError* recorded = exchange_.replay->find(id)) return *recorded;
+      missing_.local().push_back(id);
+      return {};
+    }
+    const LeafError error =
+        leafErrorOf(points_->sumsOf(run), detail_.coarseKnown, settings_.deferToCoarse, mayBeTwoSided(cell));
+    if (exchange_.recorded && ancestorId(cellIdOf(cell), exchange_.within->depth) == cellIdOf(*exchange_.within))
+      found_.local().emplace_back(cellIdOf(cell), error);
+    return error;
   }
 
   bool mayBeTwoSided(const Cell& cell) const {
@@ -207,8 +234,7 @@ class MetricEvaluator {
       if (mask & (1u << c)) {
         const Cell child = leaf.cell.child(c);
         out.points[c] = points_->runOf(child, leaf.points);
-        out.errors[c] = leafErrorOf(points_->sumsOf(out.points[c]), detail_.coarseKnown, settings_.deferToCoarse,
-                                    mayBeTwoSided(child));
+        out.errors[c] = pointsError(child, out.points[c]);
       }
     return out;
   }
@@ -277,6 +303,9 @@ class MetricEvaluator {
   const BuildSettings& settings_;
   int sumDepth_;
   std::vector<std::optional<FineSums>> fineSums_;  // per coarse cell, with a sum depth
+  const ErrorExchange& exchange_;
+  mutable tbb::enumerable_thread_specific<std::vector<std::pair<CellId, LeafError>>> found_;
+  mutable tbb::enumerable_thread_specific<std::vector<CellId>> missing_;
 };
 
 // ---- Assembly -------------------------------------------------------------
@@ -368,6 +397,11 @@ double RefinementOutcome::rmsDegrees() const {
 }
 
 BuiltOctree buildOctree(const CoarseMesh& coarse, const DetailPrimitives& detail, const BuildSettings& settings) {
+  return buildOctree(coarse, detail, settings, ErrorExchange{});
+}
+
+BuiltOctree buildOctree(const CoarseMesh& coarse, const DetailPrimitives& detail, const BuildSettings& settings,
+                        const ErrorExchange& exchange) {
   const int depth = settings.coarseDepth;
   const Groups coarseCells = groupByKey(binIntoGrid(
       coarse.triangles.size(), depth, [&](std::uint32_t t) { return coarseBounds(coarse, t); },
@@ -403,10 +437,11 @@ BuiltOctree buildOctree(const CoarseMesh& coarse, const DetailPrimitives& detail
   // bunny); pages reserved but never used are never touched.
   if (settings.budgetTexels > 0) nodes.reserve(std::max<std::size_t>(nodes.size(), settings.budgetTexels));
   outcome.sumDepth = sumDepthFor(detail, settings);
-  MetricEvaluator metric(coarse, detail, pointOrder ? &*pointOrder : nullptr, settings, outcome.sumDepth);
+  MetricEvaluator metric(coarse, detail, pointOrder ? &*pointOrder : nullptr, settings, outcome.sumDepth, exchange);
   GlobalRefinement refinement(metric, settings, nodes, outcome);
   refinement.start(std::move(first));
   refinement.run();
+  metric.handOver();
   // Breadth-first numbering: the octree does not depend on the order the
   // splits were made in (which follows the last bits of the error metric).
   std::vector<std::uint32_t> newNumber;

@@ -125,6 +125,10 @@ struct BuiltOctree {
   RefinementOutcome refinement;
 };
 
+// What a build records of the metric's errors or reads back instead
+// (l21_metric.h).
+struct ErrorExchange;
+
 // Complete to settings.coarseDepth around m, then refined globally as
 // BuildSettings says, down to settings.maxDepth; only children that
 // intersect m are kept. Splits are chosen in rounds and evaluated in
@@ -132,5 +136,7 @@ struct BuiltOctree {
 // levels alone exceed the budget, the tree stops there with
 // refinement.texels above settings.budgetTexels.
 BuiltOctree buildOctree(const CoarseMesh& coarse, const DetailPrimitives& detail, const BuildSettings& settings);
+BuiltOctree buildOctree(const CoarseMesh& coarse, const DetailPrimitives& detail, const BuildSettings& settings,
+                        const ErrorExchange& exchange);
 
 }  // namespace apo::octree

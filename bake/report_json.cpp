@@ -32,6 +32,18 @@ std::string bakeReportJson(const BakeReport& r) {
     json["n3tree"] = {{"n", t.n},         {"levels", t.levels}, {"grids", t.grids}, {"pool_cells", t.poolCells},
                       {"two_sided_leaves", t.twoSidedLeaves}, {"bytes", t.bytes}, {"seconds", t.seconds}};
   }
+  if (r.bricks) {
+    const BrickReport& b = *r.bricks;
+    json["bricks"] = {{"depth", b.depth},
+                      {"bricks", b.bricks},
+                      {"refinement_runs", b.refinementRuns},
+                      {"recorded_cells", b.recordedCells},
+                      {"largest_brick_points", b.largestBrickPoints},
+                      {"points_loaded", b.pointsLoaded},
+                      {"margin", b.marginWorld},
+                      {"discs_wider_than_reach", b.discsWiderThanReach},
+                      {"seconds", {{"areas", b.areaSeconds}, {"refinement", b.refineSeconds}, {"sampling", b.sampleSeconds}}}};
+  }
   json["seconds"] = {{"setup", r.seconds.setup},
                      {"build", r.seconds.build},
                      {"sample", r.seconds.sample},

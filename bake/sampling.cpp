@@ -160,47 +160,7 @@ class LeafSampler {
   std::vector<Cell> cells_;
 };
 
-// The samples below a node, as the choice between its mean normal and m's
-// needs them: over samples of weight w, M normal n and m normal r,
-// W = sum w, S = sum w n and R = sum w n.r. Against M's unit normals the
-// mean S/|S| leaves sum w |n - S/|S||^2 = 2 (W - |S|), m's normals
-// sum w |n - r|^2 = 2 (W - R): m is the closer where R > |S|.
-// C = sum w r tells whether m itself turns back under the node.
-struct SampleMoments {
-  double weight = 0.0, alongCoarse = 0.0;
-  Eigen::Vector3d sum = Eigen::Vector3d::Zero(), coarseSum = Eigen::Vector3d::Zero();
-
-  SampleMoments& operator+=(const SampleMoments& other) {
-    weight += other.weight;
-    alongCoarse += other.alongCoarse;
-    sum += other.sum;
-    coarseSum += other.coarseSum;
-    return *this;
-  }
-  bool coarseIsCloser() const { return weight > 0.0 && alongCoarse > sum.norm(); }
-  // m's own normals below the node spread so far that their mean is
-  // shorter than kBothSidesLength: both sides of a thin part (or a fold)
-  // under one node.
-  bool coversBothSides() const { return coarseSum.norm() < kBothSidesLength * weight; }
-  // M's normals below the node spread so far that their mean is shorter
-  // than kTurnLength: M turns under the node (a rounded edge, a crease).
-  bool detailTurns() const { return sum.norm() < kTurnLength * weight; }
-
-  // Only there does an internal node show m (where m is also the closer).
-  // Its mean is also what the filter blends for a neighbour whose walk
-  // stops at it, and where m merely beats the mean (a smooth curve under a
-  // coarse node) the mean blends better: the bumpy sphere of the tests lost
-  // 20% of its filtered accuracy (0.200 degrees against 0.166) when every
-  // node where m was closer showed m, 17% when such neighbours were left
-  // out of the blend instead. A cap of a sphere 70 degrees wide still has a
-  // mean of length 0.9.
-  static constexpr double kBothSidesLength = 0.8;
-  // About 11 degrees root mean square from the mean. Measured (docs/bake.md,
-  // "Internal nodes"): blade.off rendered mip-mapped 0.402 -> 0.155 degrees
-  // (m alone 0.199), the bumpy sphere unchanged (0.1654), bunny00 filtered
-  // 0.197 -> 0.196; at 0.8 and 0.9 the blade did not move.
-  static constexpr double kTurnLength = 0.98;
-};
+}  // namespace
 
 // Children come after their parent in the node array, so a reverse sweep sees
 // every child before its parent. `moments` holds the leaves' and receives
@@ -233,20 +193,28 @@ void averageInternalNodes(Octree& octree, std::vector<SampleMoments>& moments, b
   }
 }
 
-}  // namespace
-
 SampleCounts sampleNormalField(octree::BuiltOctree& built, const CoarseFrames& coarse, const DetailSurface& detail,
                                const SamplingSettings& settings,
                                const std::function<void(std::size_t, std::size_t)>& onChunkDone) {
-  Octree& octree = built.octree;
   std::vector<std::uint32_t> leaves;
-  for (std::uint32_t n = 0; n < octree.nodes.size(); ++n)
-    if (octree.nodes[n].isLeaf()) leaves.push_back(n);
+  for (std::uint32_t n = 0; n < built.octree.nodes.size(); ++n)
+    if (built.octree.nodes[n].isLeaf()) leaves.push_back(n);
+  std::vector<SampleMoments> moments(built.octree.nodes.size());
+  const SampleCounts counts = sampleLeaves(built, leaves, coarse, detail, settings, moments, onChunkDone);
+  averageInternalNodes(built.octree, moments, settings.internalNodesMayShowCoarse);
+  return counts;
+}
+
+SampleCounts sampleLeaves(octree::BuiltOctree& built, std::span<const std::uint32_t> leaves, const CoarseFrames& coarse,
+                          const DetailSurface& detail, const SamplingSettings& settings,
+                          std::vector<SampleMoments>& moments,
+                          const std::function<void(std::size_t, std::size_t)>& onChunkDone) {
+  Octree& octree = built.octree;
   const LeafSampler sampler(built, coarse, detail, settings);
   const double unitToWorldArea = 1.0 / (octree.transform.scale * octree.transform.scale);
 
   const std::size_t chunks = (leaves.size() + kLeavesPerChunk - 1) / kLeavesPerChunk;
-  std::vector<SampleMoments> moments(octree.nodes.size());  // each chunk writes its own leaves'
+  // Each chunk writes its own leaves' moments.
   std::vector<SampleCounts> counts(chunks);
   std::atomic<std::size_t> chunksDone{0};
   tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t chunk) {
@@ -314,7 +282,6 @@ SampleCounts sampleNormalField(octree::BuiltOctree& built, const CoarseFrames& c
     }
     if (onChunkDone) onChunkDone(++chunksDone, chunks);
   });
-  averageInternalNodes(octree, moments, settings.internalNodesMayShowCoarse);
   SampleCounts total;
   for (const SampleCounts& c : counts) {
     total.rays += c.rays;

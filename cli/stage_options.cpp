@@ -174,6 +174,11 @@ void addBakeOptions(CLI::App& app, BakeArguments& arguments) {
   app.add_option("--n3-size", o.n3Size, "N of the N^3-tree: 2 (an octree) or 4 (two levels per grid)")
       ->check(CLI::IsMember({2, 4}))
       ->capture_default_str();
+  app.add_option("--brick-depth", o.brickDepth,
+                 "Bake M's points brick by brick, the bricks being the octree's cells of this depth that hold m "
+                 "(1: 8 at most, 2: 64, ...; 0: in one piece): only one brick's points and search structures are "
+                 "held at a time, and the .apo is the same (docs/bake.md, \"Bricks\")")
+      ->capture_default_str();
   app.add_option("--threads", arguments.threads, "Worker threads (0: all cores); the output does not depend on it")
       ->capture_default_str();
 }

@@ -156,6 +156,38 @@ Result<DetailSearch> detailSearch(const Scan& M, DetailSurface& surface) {
   return search;
 }
 
+// M's points held in memory, served a box at a time to the bake in bricks.
+BrickedPoints pointsInMemory(const Scan& M) {
+  BrickedPoints source;
+  source.count = M.points.size();
+  source.pointsIn = [&M](const Aabb& box) -> Result<PointSet> {
+    PointSet inside;
+    for (std::size_t i = 0; i < M.points.size(); ++i) {
+      const Vec3f& p = M.points.positions[i];
+      if ((p.array() < box.min.array()).any() || (p.array() > box.max.array()).any()) continue;
+      inside.positions.push_back(p);
+      inside.normals.push_back(M.points.normals[i]);
+    }
+    return inside;
+  };
+  source.areasOf = [](const PointSet& points) -> Result<std::vector<float>> {
+    auto radii = discRadii(points);
+    if (!radii) return radii.error();
+    for (float& r : *radii) r *= r;
+    return radii;
+  };
+  source.searchOver = [](const PointSet& points) -> Result<BrickSearch> {
+    auto search = makeFlannPointsSearch(points);
+    if (!search) return search.error();
+    auto caster = makeEmbreeDiscCaster(points, search->radii);
+    if (!caster) return caster.error();
+    BrickSearch brick{std::move(caster).value(), std::move(search->closest), std::move(search->radii)};
+    for (float& r : brick.areas) r *= r;
+    return brick;
+  };
+  return source;
+}
+
 }  // namespace
 
 Result<Bake> bakeApo(const Scan& detail, const Scan& coarse, const Checked<BakeOptions>& options,
@@ -183,6 +215,14 @@ Result<Bake> bakeApo(const Scan& detail, const Scan& coarse, const Checked<BakeO
   if (!M.isMesh() && !M.points.hasNormals())
     return badInput("the detail points have no normals: run `apo ingest` first, which estimates and orients them");
   APO_RETURN_IF_ERROR(validateBakeInputs(M, coarse));
+  if (options->brickDepth > 0 && !M.isMesh()) {
+    auto coarseCaster = makeEmbreeMeshCaster(coarse);
+    if (!coarseCaster) return coarseCaster.error();
+    return bakeInBricks(pointsInMemory(M), {&coarse, coarseCaster->get()}, options, onProgress);
+  }
+  if (options->brickDepth > 0)
+    spdlog::info("bake: M is a mesh, baked in one piece (--brick-depth {} bakes points brick by brick)",
+                 options->brickDepth);
 
   DetailSurface surface;
   surface.detail = &M;

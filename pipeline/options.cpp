@@ -47,7 +47,8 @@ Json bakeJson(const BakeOptions& o) {
           {"max-distance", o.maxDistance},
           {"samples", o.samples},            {"complete-depth", o.completeDepth},
           {"normal-encoding", normalEncodingName(o.encoding)}, {"one-sided", !o.twoSidedLeaves},
-          {"layout", textureLayoutName(o.layout)}, {"n3-size", o.n3Size}};
+          {"layout", textureLayoutName(o.layout)}, {"n3-size", o.n3Size},
+          {"brick-depth", o.brickDepth}};
 }
 
 Json renderJson(const RenderOptions& o) {

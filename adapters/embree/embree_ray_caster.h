@@ -16,13 +16,15 @@ namespace apo {
 
 // Embree BVH over a triangle mesh (hit.primitive = the triangle, u v its
 // barycentrics, geometricNormal (b-a) x (c-a)). BadInput for a point cloud.
-// The caster copies its input.
+// The caster copies its input. Each ray's hit depends on that ray alone
+// (cast one at a time), as with the disc caster.
 Result<std::unique_ptr<RayCaster>> makeEmbreeMeshCaster(const Scan& mesh);
 
 // The same nearest hits from a BVH built by Morton codes: a third to a
 // fifth of the CPU to build on a large mesh, its rays 10-25% slower
 // (docs/benchmarks.md). For a large mesh few rays meet per triangle, as M
-// in the bake.
+// in the bake. Its rays go as coherent streams, faster on M's triangles,
+// whose hits may differ in their last bits with the rays cast beside them.
 Result<std::unique_ptr<RayCaster>> makeQuickBuiltEmbreeMeshCaster(const Scan& mesh);
 
 // Embree BVH over one oriented disc per point (centre = the point, plane
