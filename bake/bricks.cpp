@@ -153,6 +153,8 @@ class BrickBake {
       reportProgress(onProgress_, 0.1 + 0.4 * static_cast<double>(b + 1) / static_cast<double>(bricks_.size()));
     }
     for (;;) {
+      records_.seal();
+      report_.recordedCells = records_.size();
       std::vector<CellId> missing;
       octree::ErrorExchange replay;
       replay.replay = &records_;
@@ -246,13 +248,17 @@ class BrickBake {
   std::vector<std::uint64_t> firstCaps(const octree::BuildSettings& settings) const {
     std::vector<std::uint64_t> caps(bricks_.size(), 0);
     if (settings.budgetTexels == 0) return caps;
+    // The coarse levels' texels, which every brick's build counts first: a
+    // build over no points stops there.
+    const std::uint64_t shared =
+        octree::buildOctree(frame_.coarseUnit, octree::DetailPrimitives{}, settings).refinement.texels;
+    const std::uint64_t rest = settings.budgetTexels - std::min(settings.budgetTexels, shared);
     std::uint64_t coarseCells = 0;
     for (const Brick& brick : bricks_) coarseCells += brick.coarseCells;
     for (std::size_t b = 0; b < bricks_.size(); ++b) {
       const double share = static_cast<double>(bricks_[b].coarseCells) / static_cast<double>(coarseCells);
       caps[b] = std::min(settings.budgetTexels,
-                         static_cast<std::uint64_t>(2.0 * share * static_cast<double>(settings.budgetTexels)) +
-                             kLeastFirstCap);
+                         shared + kLeastFirstCap + static_cast<std::uint64_t>(kFirstShare * share * static_cast<double>(rest)));
     }
     return caps;
   }
@@ -285,9 +291,8 @@ class BrickBake {
     record.within = &brick.cell;
     record.recorded = &found;
     const octree::BuiltOctree built = octree::buildOctree(frame_.coarseUnit, inBrick, settings, record);
-    records_.add(std::move(found));
+    records_.add(found);
     ++report_.refinementRuns;
-    report_.recordedCells = records_.size();
     return built.refinement.stoppedBy != "budget";
   }
 
@@ -302,7 +307,10 @@ class BrickBake {
     return cells;
   }
 
-  static constexpr std::uint64_t kLeastFirstCap = 4096;
+  // A brick's first build may spend kFirstShare times its share of the
+  // budget by m's coarse cells, and kLeastFirstCap texels more.
+  static constexpr double kFirstShare = 2.0;
+  static constexpr std::uint64_t kLeastFirstCap = 256;
 
   const BrickedPoints& source_;
   const CoarseSurface& coarse_;

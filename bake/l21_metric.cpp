@@ -284,22 +284,25 @@ CellId ancestorId(CellId cell, int depth) {
   return (static_cast<CellId>(depth) << kCellIdDepthShift) | gridKey(xyz[0] >> up, xyz[1] >> up, xyz[2] >> up, depth);
 }
 
-void RecordedErrors::add(std::vector<std::pair<CellId, LeafError>> found) {
-  found.reserve(found.size() + cells_.size());
-  for (std::size_t i = 0; i < cells_.size(); ++i) found.emplace_back(cells_[i], errors_[i]);
-  std::sort(found.begin(), found.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
-  cells_.clear();
-  errors_.clear();
-  for (const auto& [cell, error] : found) {
-    if (!cells_.empty() && cells_.back() == cell) continue;
-    cells_.push_back(cell);
-    errors_.push_back(error);
-  }
+void RecordedErrors::add(const std::vector<std::pair<CellId, LeafError>>& found) {
+  records_.insert(records_.end(), found.begin(), found.end());
+}
+
+void RecordedErrors::seal() {
+  const auto byCell = [](const auto& a, const auto& b) { return a.first < b.first; };
+  // The new records sorted, then merged with the sorted ones: stable, so a
+  // cell keeps its first record.
+  std::stable_sort(records_.begin() + static_cast<std::ptrdiff_t>(sealed_), records_.end(), byCell);
+  std::inplace_merge(records_.begin(), records_.begin() + static_cast<std::ptrdiff_t>(sealed_), records_.end(), byCell);
+  records_.erase(std::unique(records_.begin(), records_.end(), [](const auto& a, const auto& b) { return a.first == b.first; }),
+                 records_.end());
+  sealed_ = records_.size();
 }
 
 const LeafError* RecordedErrors::find(CellId cell) const {
-  const auto at = std::lower_bound(cells_.begin(), cells_.end(), cell);
-  return at != cells_.end() && *at == cell ? &errors_[static_cast<std::size_t>(at - cells_.begin())] : nullptr;
+  const auto end = records_.begin() + static_cast<std::ptrdiff_t>(sealed_);
+  const auto at = std::lower_bound(records_.begin(), end, cell, [](const auto& r, CellId c) { return r.first < c; });
+  return at != end && at->first == cell ? &at->second : nullptr;
 }
 
 std::optional<CellId> pointCellId(const Vec3f& p, int depth) {

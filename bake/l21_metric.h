@@ -256,15 +256,16 @@ std::optional<CellId> pointCellId(const Vec3f& p, int depth);
 // from M, and so makes the splits the build over all of M would.
 class RecordedErrors {
  public:
-  // Sorted by cell, each cell once (a cell's error is the same however
-  // often it was found).
-  void add(std::vector<std::pair<CellId, LeafError>> found);
+  void add(const std::vector<std::pair<CellId, LeafError>>& found);
+  // Sorts what was added by cell, each cell once (a cell's error is the
+  // same however often it was found); before `find`.
+  void seal();
   const LeafError* find(CellId cell) const;
-  std::size_t size() const { return cells_.size(); }
+  std::size_t size() const { return records_.size(); }
 
  private:
-  std::vector<CellId> cells_;
-  std::vector<LeafError> errors_;
+  std::vector<std::pair<CellId, LeafError>> records_;
+  std::size_t sealed_ = 0;  // records_[0, sealed_) are sorted and unique
 };
 
 // What a build records or reads back beside the metric (none by default).

@@ -20,8 +20,7 @@ using ::testing::HasSubstr;
 // against m (an icosphere too): along m's axes of symmetry, a ray would
 // meet two or three discs at exactly the same distance, and which one
 // Embree reports depends on its BVH, so on the brick (docs/bake.md, "Bricks").
-Scan bumpyPoints(int subdivisions) {
-  const test::BumpySphere shape = test::BumpySphere::allOver();
+Scan bumpyPoints(const test::BumpySphere& shape, int subdivisions) {
   Scan mesh = shape.mesh(subdivisions);
   std::vector<std::size_t> order(mesh.points.size());
   for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
@@ -65,7 +64,7 @@ void expectSameBake(const Bake& bricks, const Bake& whole) {
 class BrickBake : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    points_ = new Scan(bumpyPoints(6));
+    points_ = new Scan(bumpyPoints(test::BumpySphere::allOver(), 6));
     coarse_ = new Scan(test::makeIcosphere(3));
   }
   static void TearDownTestSuite() {
@@ -98,6 +97,38 @@ TEST_F(BrickBake, BricksGiveTheOnePieceBakeUnderABudget) {
     EXPECT_LT(bricks->report.bricks->largestBrickPoints, points_->points.size() * (depth == 1 ? 2 : 1) / 3);
     expectSameBake(*bricks, *whole);
   }
+}
+
+TEST(BrickBakeOfAPlane, BricksWhoseFirstShareFallsShortAreBuiltAgain) {
+  // A flat square with one bump: the flat parts never split (their normals
+  // agree), so the budget goes to the bricks holding the bump, far beyond
+  // their share by m's cells. The points sit a hair off the plane, each at
+  // its own height: discs all in one plane would meet a ray at exactly the
+  // same distance, and Embree reports one of them by its BVH's order.
+  std::mt19937 random(11);
+  std::uniform_real_distribution<float> along(-1.0f, 1.0f), hair(-1e-4f, 1e-4f);
+  const auto height = [](float x, float y) {
+    return 0.08f * std::exp(-((x - 0.5f) * (x - 0.5f) + (y - 0.45f) * (y - 0.45f)) / 0.04f);
+  };
+  Scan points;
+  for (int i = 0; i < 120000; ++i) {
+    const float x = along(random), y = along(random), h = height(x, y);
+    const float hx = h * -2.0f * (x - 0.5f) / 0.04f, hy = h * -2.0f * (y - 0.45f) / 0.04f;
+    points.points.positions.emplace_back(x, y, h + hair(random));
+    points.points.normals.push_back(Vec3f(-hx, -hy, 1.0f).normalized());
+  }
+  Scan plane;
+  plane.points.positions = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
+  plane.triangles = {{0, 1, 2}, {0, 2, 3}};
+  BakeOptions options = bakeOptions(48 << 10, 0);
+  auto whole = bakeApo(points, plane, test::checked(options));
+  ASSERT_TRUE(whole.ok()) << whole.error().message;
+  EXPECT_EQ(whole->report.refinement.stoppedBy, "budget");
+  options.brickDepth = 1;
+  auto bricks = bakeApo(points, plane, test::checked(options));
+  ASSERT_TRUE(bricks.ok()) << bricks.error().message;
+  EXPECT_GT(bricks->report.bricks->refinementRuns, bricks->report.bricks->bricks);
+  expectSameBake(*bricks, *whole);
 }
 
 TEST_F(BrickBake, BricksGiveTheOnePieceBakeWithTheErrorThresholdAlone) {
