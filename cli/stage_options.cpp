@@ -233,6 +233,9 @@ void addStageOptionGroups(CLI::App& app, StageArguments& arguments) {
   app.add_flag("--keep-georeference", arguments.keepGeoreference,
                "Write M.ply and m.ply in the scan's own (world) coordinates, in double, instead of its local frame "
                "(a scan far from zero is processed in a local frame whose origin the outputs record)");
+  app.add_flag("--all-points", arguments.allPoints,
+               "A scan above --max-scan-points: bake the APO from every point, not from the voxel centroids (a "
+               "point store under OUTDIR/.scratch, removed once baked; the bake in bricks, --brick-depth or 2)");
   addGroup(app, "Ingest", [&] { addIngestOptions(app, arguments.ingest); });
   addGroup(app, "Reconstruct", [&] { addReconstructOptions(app, arguments.reconstruct); });
   addGroup(app, "Simplify", [&] { addSimplifyOptions(app, arguments.simplify); });
@@ -260,6 +263,7 @@ RunOptions runOptionsFrom(StageArguments arguments) {
                          : arguments.detailSource == "mesh"  ? DetailSource::Mesh
                                                              : DetailSource::Auto;
   options.keepGeoreference = arguments.keepGeoreference;
+  options.allPoints = arguments.allPoints;
   options.ingest = arguments.ingest.options;
   options.reconstruct = arguments.reconstruct;
   options.simplify = arguments.simplify.options;

@@ -65,6 +65,7 @@ void addExportOptions(CLI::App& app, ExportOptions& options);
 // --help, --detail-source and --config (TOML).
 struct StageArguments {
   bool keepGeoreference = false;
+  bool allPoints = false;
   std::string detailSource = "auto";
   IngestArguments ingest;
   ReconstructOptions reconstruct;

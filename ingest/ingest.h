@@ -187,6 +187,61 @@ struct IngestResult {
   IngestReport report;
 };
 
+// ---- Every point of a large scan, on disk (docs/ingest.md, "Every point") --
+
+// What writing a store found.
+struct PointStoreReport {
+  std::uint64_t points = 0;               // finite points stored
+  std::uint64_t nonFinite = 0;            // skipped
+  int gridDepth = 0;                      // 2^depth cells a side
+  std::uint64_t occupiedCells = 0;
+  int neighbours = 0;                     // k of the normals
+  std::uint64_t unfittedNormals = 0;      // no plane fitted: the nearest oriented point's normal
+  std::uint64_t cutNeighbourhoods = 0;    // k nearest not provably all within the cell's band
+  std::uint64_t bytes = 0;                // on disk
+  bool reused = false;                    // found complete from an earlier run
+  double seconds = 0.0;
+};
+
+// A scan's every point with a normal, sorted into the cells of a grid over
+// its box, in files under one folder (format: docs/ingest.md, "Every
+// point"). Read a box at a time; the points come in the store's order
+// (cell by cell, each cell's in the file's order), the same for any box.
+class PointStore {
+ public:
+  // Opens a complete store; BadInput when the folder holds none, an older
+  // or damaged one (its files' sizes disagree with store.json).
+  static Result<PointStore> open(const std::filesystem::path& folder);
+
+  std::uint64_t size() const { return count_; }
+  const std::filesystem::path& folder() const { return folder_; }
+  const PointStoreReport& report() const { return report_; }
+  // The points inside `box` (the scan's local frame, bounds included).
+  Result<PointSet> pointsIn(const Aabb& box) const;
+
+ private:
+  friend Result<PointStore> writePointStore(const std::filesystem::path&, const Scan&, int, const std::filesystem::path&,
+                                            const ProgressCallback&);
+  std::filesystem::path folder_;
+  std::uint64_t count_ = 0;
+  Aabb grid_;       // the grid's cube
+  int depth_ = 0;
+  std::vector<std::uint64_t> cellBegin_;  // per cell (x-major), and the end
+  PointStoreReport report_;
+};
+
+// Writes every finite point of the file at `scanPath` (one read a run at a
+// time: a binary PLY of vertices alone, a LAS or a LAZ file) into a store in
+// `folder`, in the local frame of `oriented`, with normals: PCA over k
+// neighbours found within the point's cell and a band around it, turned to
+// agree with the nearest point of `oriented` (the scan's voxel centroids as
+// ingest oriented them). A complete store of the same file and k already in
+// the folder is reused. Two passes over the file, then one over the cells.
+// BadInput when the file cannot be read so; Internal when a write fails (a
+// full disk), the folder then left without store.json.
+Result<PointStore> writePointStore(const std::filesystem::path& scanPath, const Scan& oriented, int k,
+                                   const std::filesystem::path& folder, const ProgressCallback& progress = {});
+
 // Reads, validates and cleans `path`, and estimates and orients normals when
 // the scan is a point cloud without them. Fails with BadInput when the file is
 // malformed or nothing remains after cleaning. `readFraction` hears the share

@@ -353,17 +353,17 @@ Result<IslandOrientation> orientByPropagation(const std::vector<Vec3f>& points, 
 // the neighbourhood has fewer than 3 points, no extent, or no one flattest
 // direction (its two smallest spreads equal: a ball of points, not a patch
 // of surface).
-Vec3f planeNormal(const std::vector<Vec3f>& points, const flann_adapter::NeighbourGraph& graph, std::size_t i,
+Vec3f planeNormal(const Vec3f& point, const std::vector<Vec3f>& points, const std::uint32_t* neighbours,
                   std::size_t others, const Vec3f& towards) {
   constexpr float kUndefined = std::numeric_limits<float>::quiet_NaN();
   if (others + 1 < 3) return Vec3f::Constant(kUndefined);
   // Offsets from the point itself keep the sums exact for georeferenced
   // coordinates as well.
-  const Eigen::Vector3d origin = points[i].cast<double>();
+  const Eigen::Vector3d origin = point.cast<double>();
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   Eigen::Matrix3d products = Eigen::Matrix3d::Zero();
   for (std::size_t j = 0; j < others; ++j) {
-    const Eigen::Vector3d d = points[graph.neighbours[i * graph.k + j]].cast<double>() - origin;
+    const Eigen::Vector3d d = points[neighbours[j]].cast<double>() - origin;
     sum += d;
     products += d * d.transpose();
   }
@@ -374,7 +374,7 @@ Vec3f planeNormal(const std::vector<Vec3f>& points, const flann_adapter::Neighbo
   const Eigen::Vector3d spread = solver.eigenvalues();  // ascending
   if (spread[1] - spread[0] <= kSameSpread * covariance.trace()) return Vec3f::Constant(kUndefined);
   Vec3f normal = solver.eigenvectors().col(0).cast<float>().normalized();
-  if (normal.dot(towards - points[i]) < 0.0f) normal = -normal;
+  if (normal.dot(towards - point) < 0.0f) normal = -normal;
   return normal;
 }
 
@@ -387,7 +387,7 @@ std::vector<Vec3f> pcaNormals(const std::vector<Vec3f>& points, const flann_adap
   std::vector<Vec3f> normals(points.size());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 4096), [&](const auto& range) {
     for (std::size_t i = range.begin(); i < range.end(); ++i)
-      normals[i] = planeNormal(points, graph, i, others, sensors.of(i));
+      normals[i] = planeNormal(points[i], points, &graph.neighbours[i * graph.k], others, sensors.of(i));
   });
   return normals;
 }
@@ -527,6 +527,26 @@ Result<OrientedNormals> estimateOrientedNormals(const std::vector<Vec3f>& points
     if (result.normals[i].allFinite()) result.normals[i] = oriented[i];
   result.islands = islands->islands;
   result.unoriented = islands->leftovers;
+  return result;
+}
+
+GuidedNormals guidedNormals(const std::vector<Vec3f>& reference, const std::vector<Vec3f>& queries,
+                            const flann_adapter::NearestRows& nearest, const std::vector<Vec3f>& guides) {
+  GuidedNormals result;
+  result.normals.resize(queries.size());
+  std::vector<char> fitted(queries.size(), 0);
+  // Each row holds the query itself first (it is among the reference
+  // points), then its k - 1 nearest others.
+  const std::size_t others = nearest.k > 0 ? nearest.k - 1 : 0;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, queries.size(), 1024), [&](const auto& range) {
+    for (std::size_t q = range.begin(); q < range.end(); ++q) {
+      const Vec3f normal =
+          planeNormal(queries[q], reference, &nearest.indices[q * nearest.k + 1], others, queries[q] + guides[q]);
+      fitted[q] = normal.allFinite() ? 1 : 0;
+      result.normals[q] = fitted[q] ? normal : guides[q];
+    }
+  });
+  for (const char f : fitted) result.unfitted += f ? 0 : 1;
   return result;
 }
 

@@ -1,11 +1,13 @@
 // Internal to ingest: normals for point clouds that have none.
 #pragma once
 
+#include "adapters/flann/flann_search.h"
 #include "core/error.h"
 #include "core/geometry.h"
 #include "ingest/ingest.h"
 #include "ingest/sensors.h"
 
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
@@ -59,5 +61,17 @@ struct OrientedNormals {
 Result<OrientedNormals> estimateOrientedNormals(const std::vector<Vec3f>& points,
                                                 const std::optional<Sensors>& sensors, int k,
                                                 OrientationMethod orientation = OrientationMethod::Propagation);
+
+// PCA normals of `queries` (each a point of `reference`) over their rows of
+// `nearest` (each query's k nearest reference points, itself first), as
+// estimateOrientedNormals fits them, each turned to agree with its guide (a
+// unit normal: the nearest oriented point's, for a large scan's every point
+// in its store); where no plane fits, the guide itself.
+struct GuidedNormals {
+  std::vector<Vec3f> normals;
+  std::uint64_t unfitted = 0;  // normals that are their guide
+};
+GuidedNormals guidedNormals(const std::vector<Vec3f>& reference, const std::vector<Vec3f>& queries,
+                            const flann_adapter::NearestRows& nearest, const std::vector<Vec3f>& guides);
 
 }  // namespace apo::normals

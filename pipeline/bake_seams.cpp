@@ -158,9 +158,7 @@ Result<DetailSearch> detailSearch(const Scan& M, DetailSurface& surface) {
 
 // M's points held in memory, served a box at a time to the bake in bricks.
 BrickedPoints pointsInMemory(const Scan& M) {
-  BrickedPoints source;
-  source.count = M.points.size();
-  source.pointsIn = [&M](const Aabb& box) -> Result<PointSet> {
+  return brickedPoints(M.points.size(), [&M](const Aabb& box) -> Result<PointSet> {
     PointSet inside;
     for (std::size_t i = 0; i < M.points.size(); ++i) {
       const Vec3f& p = M.points.positions[i];
@@ -169,7 +167,15 @@ BrickedPoints pointsInMemory(const Scan& M) {
       inside.normals.push_back(M.points.normals[i]);
     }
     return inside;
-  };
+  });
+}
+
+}  // namespace
+
+BrickedPoints brickedPoints(std::uint64_t count, std::function<Result<PointSet>(const Aabb& box)> pointsIn) {
+  BrickedPoints source;
+  source.count = count;
+  source.pointsIn = std::move(pointsIn);
   source.areasOf = [](const PointSet& points) -> Result<std::vector<float>> {
     auto radii = discRadii(points);
     if (!radii) return radii.error();
@@ -188,7 +194,12 @@ BrickedPoints pointsInMemory(const Scan& M) {
   return source;
 }
 
-}  // namespace
+Result<Bake> bakeApoInBricks(const BrickedPoints& detail, const Scan& coarse, const Checked<BakeOptions>& options,
+                             const ProgressCallback& onProgress) {
+  auto coarseCaster = makeEmbreeMeshCaster(coarse);
+  if (!coarseCaster) return coarseCaster.error();
+  return bakeInBricks(detail, {&coarse, coarseCaster->get()}, options, onProgress);
+}
 
 Result<Bake> bakeApo(const Scan& detail, const Scan& coarse, const Checked<BakeOptions>& options,
                      const ProgressCallback& onProgress) {
@@ -215,11 +226,7 @@ Result<Bake> bakeApo(const Scan& detail, const Scan& coarse, const Checked<BakeO
   if (!M.isMesh() && !M.points.hasNormals())
     return badInput("the detail points have no normals: run `apo ingest` first, which estimates and orients them");
   APO_RETURN_IF_ERROR(validateBakeInputs(M, coarse));
-  if (options->brickDepth > 0 && !M.isMesh()) {
-    auto coarseCaster = makeEmbreeMeshCaster(coarse);
-    if (!coarseCaster) return coarseCaster.error();
-    return bakeInBricks(pointsInMemory(M), {&coarse, coarseCaster->get()}, options, onProgress);
-  }
+  if (options->brickDepth > 0 && !M.isMesh()) return bakeApoInBricks(pointsInMemory(M), coarse, options, onProgress);
   if (options->brickDepth > 0)
     spdlog::info("bake: M is a mesh, baked in one piece (--brick-depth {} bakes points brick by brick)",
                  options->brickDepth);

@@ -7,6 +7,7 @@
 #include "bake/bake.h"
 #include "core/closest_point.h"
 
+#include <functional>
 #include <memory>
 
 namespace apo {
@@ -18,6 +19,14 @@ namespace apo {
 // Embree BVH of m. Fails as bakeWith does.
 Result<Bake> bakeApo(const Scan& detail, const Scan& coarse, const Checked<BakeOptions>& options,
                      const ProgressCallback& onProgress = {});
+
+// M's points, `count` of them, given a box at a time by `pointsIn`, with the
+// production seams of the bake in bricks: FLANN for their areas and closest
+// point, Embree for their discs.
+BrickedPoints brickedPoints(std::uint64_t count, std::function<Result<PointSet>(const Aabb& box)> pointsIn);
+// bakeInBricks over those seams and an Embree BVH of m (options.brickDepth > 0).
+Result<Bake> bakeApoInBricks(const BrickedPoints& detail, const Scan& coarse, const Checked<BakeOptions>& options,
+                             const ProgressCallback& onProgress = {});
 
 // m's own interpolated normal (its file's vertex normals, else area-weighted
 // ones, as the bake and the renderer take them) at the closest point of m to

@@ -85,6 +85,7 @@ Result<Checked<RunOptions>> check(const RunOptions& options) {
 nlohmann::ordered_json optionsJson(const RunOptions& options) {
   return {{"detail-source", detailSourceName(options.detailSource)},
           {"keep-georeference", options.keepGeoreference},
+          {"all-points", options.allPoints},
           {"ingest", ingestJson(options.ingest)},
           {"reconstruct", reconstructJson(options.reconstruct)},
           {"simplify", simplifyJson(options.simplify)},

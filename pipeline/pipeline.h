@@ -64,6 +64,10 @@ struct RunOptions {
   DetailSource detailSource = DetailSource::Auto;
   // M.ply and m.ply in world coordinates (double) rather than the local frame.
   bool keepGeoreference = false;
+  // A scan above --max-scan-points: the APO baked from every point (a point
+  // store in the output folder, the bake in bricks), not the centroids
+  // (docs/run.md, "Every point").
+  bool allPoints = false;
   IngestOptions ingest;
   ReconstructOptions reconstruct;
   SimplifyOptions simplify;

@@ -34,7 +34,14 @@ struct PipelineData {
   const Scan* reference = nullptr;   // M as the renders draw it: dense, or the scan's points
   std::optional<ScanProbes> probes;  // point scans: the probes on m judging the asset against the scan
   std::vector<Camera> cameras;       // the renders' views, in their order
+  std::optional<PointStore> store;   // --all-points on a large scan: its every point
 };
+
+// Where --all-points keeps a large scan's every point while the run needs them.
+constexpr const char* kScratchFolder = ".scratch";
+// The bricks' depth for a store's every point (64 at most: a brick of a
+// 100-million-point scan holds a few million).
+constexpr int kStoreBrickDepth = 2;
 
 class Run {
  public:
@@ -109,17 +116,45 @@ class Run {
     std::error_code ignored;
     manifest_["input"]["sha256"] = *digest;
     manifest_["input"]["bytes"] = fs::file_size(settings_.input, ignored);
-    // A scan read a run at a time says how much is read: most of its ingest.
-    auto ingested = ingestScan(settings_.input, partOf(settings_.options, &RunOptions::ingest), reportFraction());
+    // A scan read a run at a time says how much is read: most of its ingest
+    // (the first part of it when every point goes to a store after).
+    const double readShare = settings_.options->allPoints ? 0.3 : 1.0;
+    auto ingested = ingestScan(settings_.input, partOf(settings_.options, &RunOptions::ingest),
+                               [this, readShare](double fraction) { progress_.setFraction(readShare * fraction); });
     if (!ingested) return ingested.error();
     data_.scan = std::move(ingested->scan);
     manifest_["results"]["ingest"] = Json::parse(ingestReportJson(ingested->report));
+    if (settings_.options->allPoints) APO_RETURN_IF_ERROR(storeEveryPoint(ingested->report, readShare));
     // Every output's coordinates: the scan's file coordinates = origin + them
     // (local), or the file's own (world, --keep-georeference; scan.apo and the
     // renders stay local, the .apo header holding the origin).
     const auto& o = data_.scan.origin;
     manifest_["georeference"] = {{"origin", {o[0], o[1], o[2]}},
                                  {"meshes", settings_.options->keepGeoreference && data_.scan.isGeoreferenced() ? "world" : "local"}};
+    return okStatus();
+  }
+
+  // --all-points: a scan read into voxel centroids has its every point put
+  // in a store (reused when a killed run left it complete); the manifest
+  // says what was done either way.
+  Status storeEveryPoint(const IngestReport& report, double readShare) {
+    Json& record = manifest_["results"]["ingest"]["point_store"];
+    if (!report.largeScan.subsampled || data_.scan.isMesh()) {
+      record = {{"written", false}, {"reason", "the scan is read whole (at most --max-scan-points points)"}};
+      return okStatus();
+    }
+    auto store = writePointStore(settings_.input, data_.scan, report.normalNeighbours,
+                                 settings_.outDir / kScratchFolder / "points",
+                                 [this, readShare](double f) { progress_.setFraction(readShare + (1.0 - readShare) * f); });
+    if (!store) return aboutInput(settings_.input, store.error());
+    const PointStoreReport& r = store->report();
+    record = {{"written", true},         {"reused", r.reused},
+              {"points", r.points},      {"non_finite", r.nonFinite},
+              {"grid_depth", r.gridDepth}, {"occupied_cells", r.occupiedCells},
+              {"neighbours", r.neighbours}, {"unfitted_normals", r.unfittedNormals},
+              {"cut_neighbourhoods", r.cutNeighbourhoods}, {"bytes", r.bytes},
+              {"seconds", r.seconds}};
+    data_.store = std::move(store).value();
     return okStatus();
   }
 
@@ -170,10 +205,23 @@ class Run {
   }
 
   Result<Bake> bakeFrom(const Scan& detail, double from, double to) {
-    auto baked = bakeApo(detail, data_.coarse, partOf(settings_.options, &RunOptions::bake),
-                         [&](double fraction) { progress_.setFraction(from + (to - from) * fraction); });
+    const ProgressCallback onProgress = [&](double fraction) { progress_.setFraction(from + (to - from) * fraction); };
+    auto baked = &detail == &data_.scan && data_.store ? bakeFromStore(onProgress)
+                                                       : bakeApo(detail, data_.coarse, partOf(settings_.options, &RunOptions::bake), onProgress);
     if (!baked) return aboutInput(settings_.input, baked.error());
     return baked;
+  }
+
+  // The scan's points as detail when they are in a store: every point, in
+  // bricks (--brick-depth, or kStoreBrickDepth).
+  Result<Bake> bakeFromStore(const ProgressCallback& onProgress) {
+    BakeOptions options = *partOf(settings_.options, &RunOptions::bake);
+    if (options.brickDepth == 0) options.brickDepth = std::min(kStoreBrickDepth, options.coarseDepth);
+    auto checked = check(options);
+    if (!checked) return checked.error();
+    const PointStore& store = *data_.store;
+    return bakeApoInBricks(brickedPoints(store.size(), [&store](const Aabb& box) { return store.pointsIn(box); }),
+                           data_.coarse, *checked, onProgress);
   }
 
   // --detail-source auto on a point scan: the APO baked from M and the one
@@ -227,6 +275,10 @@ class Run {
     Json choice;
     auto baked = bakeChosen(choice);
     if (!baked) return baked.error();
+    // How many points the APO's candidate from the points read: the scan's
+    // every point (its store) or the points ingest kept.
+    choice["points_baked"] = data_.store ? data_.store->size() : data_.scan.points.size();
+    choice["points_from"] = data_.store ? "store" : "scan";
     // The renders compare the APO with what it was baked from: the scan's
     // points when those were kept, not a reconstruction the APO does not
     // follow (docs/run.md, "Detail source").
@@ -243,6 +295,14 @@ class Run {
     addFile("texture", "texture.png");
     manifest_["results"]["bake"] = Json::parse(bakeReportJson(baked->report));
     manifest_["results"]["bake"]["detail_source"] = std::move(choice);
+    if (data_.store) {
+      // Only the bake reads every point: the store goes once it is done.
+      std::error_code error;
+      fs::remove_all(data_.store->folder(), error);
+      if (error) spdlog::warn("could not remove the point store {}: {}", data_.store->folder().string(), error.message());
+      fs::remove(settings_.outDir / kScratchFolder, error);
+      data_.store.reset();
+    }
     return okStatus();
   }
 

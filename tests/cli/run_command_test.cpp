@@ -107,6 +107,33 @@ TEST(RunCommand, PointsAreReconstructedAndCanBeMThemselves) {
   EXPECT_THAT(result.output, HasSubstr(fmt::format("\"sha256\": \"{}\"", manifest["input"]["sha256"].get<std::string>())));
 }
 
+// A scan above --max-scan-points with --all-points: ingest keeps voxel
+// centroids for M and puts every point in a store, the APO is baked from all
+// of them in bricks, and the store goes once the bake is done.
+TEST(RunCommand, AllPointsBakesEveryPointOfALargeScanThenRemovesItsStore) {
+  const fs::path dir = test::freshTempDir();
+  const fs::path mesh = writeMeshScan(dir / "sphere.ply");
+  const auto simulated =
+      apo(fmt::format("simulate-scan '{}' -o '{}' --views 6 --rays 120", mesh.string(), (dir / "points.ply").string()));
+  ASSERT_EQ(simulated.exitCode, 0) << simulated.output;
+  const auto result = apo(fmt::format("run '{}' -o '{}' {} --max-scan-points 5000 --all-points --detail-source points",
+                                      (dir / "points.ply").string(), (dir / "out").string(), kQuick));
+  ASSERT_EQ(result.exitCode, 0) << result.output;
+  const nlohmann::json manifest = readJson(dir / "out" / "manifest.json");
+  const nlohmann::json& ingest = manifest["results"]["ingest"];
+  EXPECT_EQ(manifest["options"]["all-points"], true);
+  ASSERT_EQ(ingest["point_store"]["written"], true);
+  const auto inFile = ingest["large_scan"]["points_in_file"].get<std::uint64_t>();
+  EXPECT_GT(inFile, 5000u);
+  EXPECT_EQ(ingest["point_store"]["points"].get<std::uint64_t>(), inFile);
+  const nlohmann::json& bake = manifest["results"]["bake"];
+  EXPECT_EQ(bake["detail_source"]["points_from"], "store");
+  EXPECT_EQ(bake["detail_source"]["points_baked"].get<std::uint64_t>(), inFile);
+  EXPECT_EQ(bake["detail"]["primitives"].get<std::uint64_t>(), inFile);
+  EXPECT_EQ(bake["bricks"]["depth"], 2);
+  EXPECT_FALSE(fs::exists(dir / "out" / ".scratch"));
+}
+
 // Mean angle between the filtered lookup of OUTDIR/scan.apo and the bumpy
 // sphere's analytic normals, at the centroids of m's faces.
 double apoErrorAgainstShape(const fs::path& outDir, const test::BumpySphere& shape) {
