@@ -12,7 +12,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numeric>
+#include <limits>
 #include <optional>
 
 namespace apo {
@@ -314,6 +314,10 @@ octree::BuildSettings buildSettingsOf(const BakeOptions& options, const Frame& f
 }
 
 void OrderFreeSum::add(float value) {
+  if (!std::isfinite(value)) {
+    nonFinite_ = true;
+    return;
+  }
   int exponent = 0;
   const float mantissa = std::frexp(value, &exponent);  // value = mantissa 2^exponent, |mantissa| in [0.5, 1)
   bins_[static_cast<std::size_t>(exponent - kLowestExponent)] += static_cast<std::int64_t>(std::ldexp(mantissa, 24));
@@ -321,9 +325,11 @@ void OrderFreeSum::add(float value) {
 
 void OrderFreeSum::add(const OrderFreeSum& other) {
   for (std::size_t i = 0; i < bins_.size(); ++i) bins_[i] += other.bins_[i];
+  nonFinite_ = nonFinite_ || other.nonFinite_;
 }
 
 double OrderFreeSum::value() const {
+  if (nonFinite_) return std::numeric_limits<double>::quiet_NaN();
   double sum = 0.0;
   for (std::size_t i = 0; i < bins_.size(); ++i)
     sum += std::ldexp(static_cast<double>(bins_[i]), static_cast<int>(i) + kLowestExponent - 24);

@@ -38,6 +38,7 @@ class OrderFreeSum {
  private:
   static constexpr int kLowestExponent = -160;  // below float's least subnormal (2^-149) with its 24 bits
   std::array<std::int64_t, 300> bins_{};
+  bool nonFinite_ = false;  // a non-finite value was added: the sum is NaN
 };
 
 // M's points for the error metric (octree_build.h): in unit-cube

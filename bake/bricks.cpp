@@ -208,7 +208,12 @@ class BrickBake {
       if (!points) return points.error();
       auto search = source_.searchOver(*points);
       if (!search) return search.error();
-      for (const float area : search->areas) report_.discsWiderThanReach += std::sqrt(area) > frame_.reach ? 1 : 0;
+      // Counted once, in the brick holding the disc's centre.
+      const Aabb own = worldBoxOf(bricks_[b].cell, 0.0f, frame_.transform, false);
+      for (std::size_t i = 0; i < points->size(); ++i)
+        if (std::sqrt(search->areas[i]) > frame_.reach && (points->positions[i].array() >= own.min.array()).all() &&
+            (points->positions[i].array() < own.max.array()).all())
+          ++report_.discsWiderThanReach;
       Scan scan;
       scan.points = std::move(points).value();
       DetailSurface surface;

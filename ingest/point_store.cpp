@@ -170,15 +170,17 @@ Status forEachRun(const large_scan::PointRuns& file, const std::array<double, 3>
 }
 
 // The source file as store.json records it: a store is reused only for
-// the same file (path, size and time) and k.
-Json sourceOf(const fs::path& scanPath, int k) {
+// the same file (path, size and time), k and oriented points (their count:
+// they follow from the file and ingest's options).
+Json sourceOf(const fs::path& scanPath, int k, std::size_t oriented) {
   std::error_code ignored;
   struct stat info {};
   ::stat(scanPath.c_str(), &info);
   return {{"path", fs::absolute(scanPath, ignored).string()},
           {"bytes", fs::file_size(scanPath, ignored)},
           {"modified_ns", static_cast<std::int64_t>(info.st_mtim.tv_sec) * 1000000000 + info.st_mtim.tv_nsec},
-          {"k", k}};
+          {"k", k},
+          {"oriented_points", oriented}};
 }
 
 // Pass 1: points per cell. Pass 2: each point at its cell's cursor.
@@ -396,7 +398,7 @@ Result<PointSet> PointStore::pointsIn(const Aabb& box) const {
 Result<PointStore> writePointStore(const fs::path& scanPath, const Scan& oriented, int k, const fs::path& folder,
                                    const ProgressCallback& progress) {
   const Stopwatch watch;
-  const Json source = sourceOf(scanPath, k);
+  const Json source = sourceOf(scanPath, k, oriented.points.size());
   if (auto earlier = PointStore::open(folder); earlier.ok()) {
     auto json = readFileBytes(folder / kManifest);
     const Json found = json ? Json::parse(*json, nullptr, false) : Json();

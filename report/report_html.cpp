@@ -940,12 +940,24 @@ std::string ingestDecisionRows(const Json* ingest) {
                     escaped(textAt(grid, {"sensor_from"})) + "), " + count(numberAt(grid, {"refused_triangles"})) +
                     " refused across depth jumps (edges over " + fixed(numberAt(grid, {"max_edge_in_spacings"}), 1) +
                     " ray spacings) or grazing");
+  const Json* store = at(ingest, {"point_store"});
+  const bool stored = store != nullptr && store->is_object() && at(store, {"written"}) != nullptr &&
+                      *at(store, {"written"}) == true;
   if (const Json* large = at(ingest, {"large_scan"}); large != nullptr && large->is_object())
     html += row("scan above --max-scan-points, read a run at a time into voxel centroids",
                 count(numberAt(large, {"points_in_file"})) + " points in the file, " +
                     count(numberAt(large, {"voxel_centroids"})) + " centroids of voxels of " +
-                    fmt::format("{:g}", numberAt(large, {"voxel_size"}).value_or(0)) +
-                    " file units kept: M and the APO are made from them");
+                    fmt::format("{:g}", numberAt(large, {"voxel_size"}).value_or(0)) + " file units kept: " +
+                    (stored ? "M is made from them, the points' APO from every point (below)"
+                            : "M and the APO are made from them"));
+  if (stored)
+    html += row("every point in a store (--all-points)",
+                count(numberAt(store, {"points"})) + " points with normals fitted over " +
+                    count(numberAt(store, {"neighbours"})) + " neighbours in " + count(numberAt(store, {"occupied_cells"})) +
+                    " cells" + (at(store, {"reused"}) != nullptr && *at(store, {"reused"}) == true ? ", reused from an earlier run" : "") +
+                    "; " + count(numberAt(store, {"cut_neighbourhoods"})) + " neighbourhoods cut by a cell's band, " +
+                    count(numberAt(store, {"unfitted_normals"})) + " normals from the nearest centroid (no plane); " +
+                    bytesText(numberAt(store, {"bytes"})) + " on disk, removed once baked");
   html += sensorRows(ingest);
   if (const Json* faces = at(ingest, {"face_orientation"}); faces != nullptr && faces->is_object() &&
                                                              numberAt(faces, {"flipped_triangles"}).value_or(0) > 0)
@@ -1023,7 +1035,23 @@ std::string detailChoiceRow(const Json* choice) {
                         bytesText(numberAt(candidates, {"mesh", "texture_bytes"})),
                         degrees(numberAt(candidates, {"points", "against_scan_mean_degrees"})),
                         bytesText(numberAt(candidates, {"points", "texture_bytes"})));
-  return row("baked from", text + ")");
+  text += ")";
+  if (const std::optional<double> baked = numberAt(choice, {"points_baked"}))
+    text += "; the points' APO read " + count(baked) +
+            (textAt(choice, {"points_from"}) == "store" ? " points, every point of the scan" : " points, the scan's as ingested");
+  return row("baked from", text);
+}
+
+// When the bake went brick by brick (bake.json bricks, docs/bake.md
+// "Bricks"), a row saying how; nothing otherwise.
+std::string bricksRow(const Json* bake) {
+  const Json* bricks = at(bake, {"bricks"});
+  if (bricks == nullptr || !bricks->is_object()) return {};
+  return row("baked in bricks", count(numberAt(bricks, {"bricks"})) + " bricks of depth " +
+                                    count(numberAt(bricks, {"depth"})) + ", " + count(numberAt(bricks, {"refinement_runs"})) +
+                                    " brick builds, at most " + count(numberAt(bricks, {"largest_brick_points"})) +
+                                    " points held at once; " + count(numberAt(bricks, {"discs_wider_than_reach"})) +
+                                    " discs wider than the rays' reach");
 }
 
 // When the bake took M's triangles in Morton order (bake.json
@@ -1048,6 +1076,7 @@ std::string bakeSection(const Json& manifest) {
   std::string rows = row("detail M", escaped(textAt(bake, {"detail", "kind"})) + ", " +
                                          count(numberAt(bake, {"detail", "primitives"})) + " primitives");
   rows += detailChoiceRow(child(bake, "detail_source"));
+  rows += bricksRow(bake);
   rows += faceOrderRow(bake);
   rows += row("rays cast", count(rays));
   rows += row("samples hit by a ray", count(hit));

@@ -183,6 +183,20 @@ TEST(ReportHtml, ShowsTheDecisionsIngestTookOnItsOwn) {
   EXPECT_THAT(html, HasSubstr("[512000.0,5403000.0,300.0]"));
   EXPECT_THAT(html, HasSubstr("element &#39;edge&#39; (2 items) skipped &lt;b&gt;"));
   EXPECT_THAT(html, HasSubstr("100,024,484 points in the file, 8,967,129 centroids of voxels of 0.000976562 file units"));
+  EXPECT_THAT(html, HasSubstr("M and the APO are made from them"));
+  // --all-points: every point in a store, the APO baked from it in bricks.
+  m["results"]["ingest"]["point_store"] = {{"written", true}, {"reused", false}, {"points", 100024484}, {"neighbours", 48},
+                                           {"occupied_cells", 15566}, {"cut_neighbourhoods", 12}, {"unfitted_normals", 3},
+                                           {"bytes", 2400587616}};
+  m["results"]["bake"]["detail_source"] = {{"option", "points"}, {"chosen", "points"}, {"reason", "--detail-source points"},
+                                           {"points_baked", 100024484}, {"points_from", "store"}};
+  m["results"]["bake"]["bricks"] = {{"depth", 2}, {"bricks", 42}, {"refinement_runs", 43}, {"largest_brick_points", 9123456},
+                                    {"discs_wider_than_reach", 0}};
+  const std::string stored = qaReportHtml(m);
+  EXPECT_THAT(stored, HasSubstr("M is made from them, the points' APO from every point"));
+  EXPECT_THAT(stored, HasSubstr("100,024,484 points with normals fitted over 48 neighbours in 15,566 cells"));
+  EXPECT_THAT(stored, HasSubstr("the points' APO read 100,024,484 points, every point of the scan"));
+  EXPECT_THAT(stored, HasSubstr("42 bricks of depth 2, 43 brick builds, at most 9,123,456 points held at once"));
   // Nothing decided, nothing said.
   const std::string plain = qaReportHtml(succeededManifest("bunny.ply", 1));
   EXPECT_THAT(plain, Not(HasSubstr("mesh read as")));
