@@ -23,6 +23,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace apo {
@@ -98,6 +99,8 @@ struct BrickReport {
   std::uint64_t largestBrickPoints = 0;   // the most points one brick loaded (its margin included)
   std::uint64_t pointsLoaded = 0;         // over every brick and pass
   double marginWorld = 0.0;               // the margin a brick loads around its cell (sampling)
+  std::uint64_t journalEntriesReused = 0; // cells' and bricks' work read back from the journal (a resumed bake)
+  std::uint64_t journalEntriesWritten = 0;
   std::uint64_t discsWiderThanReach = 0;  // discs whose radius exceeds `reach`: see docs/bake.md, "Bricks"
   double areaSeconds = 0, refineSeconds = 0, sampleSeconds = 0;
 };
@@ -180,6 +183,17 @@ struct BrickSearch {
   std::vector<float> areas;
 };
 
+// Where a bake in bricks keeps each cell's and brick's finished work as it
+// goes, so that a bake killed part way resumes from its finished bricks
+// (the pipeline: files in the run's scratch folder, docs/bake.md). Entries
+// are opaque bytes under a name; `read` gives nullopt for a name never
+// written. The caller keeps a journal to one M, m and options.
+struct BrickJournal {
+  std::function<Result<std::optional<std::string>>(const std::string& name)> read;
+  std::function<Status(const std::string& name, const std::string& bytes)> write;
+  bool present() const { return read && write; }
+};
+
 // M's points, read a box at a time: a scan too large to hold, or a file's
 // cells. `pointsIn` gives the points inside a box (world coordinates, bounds
 // included), in M's order, with unit normals; `areasOf` each point's area
@@ -189,6 +203,7 @@ struct BrickedPoints {
   std::function<Result<PointSet>(const Aabb& box)> pointsIn;
   std::function<Result<std::vector<float>>(const PointSet& points)> areasOf;
   std::function<Result<BrickSearch>(const PointSet& points)> searchOver;
+  BrickJournal journal;  // none by default
 };
 
 // The bake of M's points brick by brick (options.brickDepth > 0): only one
@@ -199,6 +214,27 @@ struct BrickedPoints {
 // disc and neighbourhood a brick needs lies inside its margin (docs/bake.md).
 Result<Bake> bakeInBricks(const BrickedPoints& detail, const CoarseSurface& coarse, const Checked<BakeOptions>& options,
                           const ProgressCallback& onProgress = {});
+
+// One task's share of a bake in bricks split across tasks (a Slurm job
+// array, docs/cluster.md "One scan across tasks"): in its pass, the task
+// does the cells (pass 1) or bricks (passes 2 and 3) whose index modulo
+// `tasks` is `task`, and writes them to the journal, which the tasks share;
+// what earlier passes did comes from the journal. Once every task of the
+// three passes is done, bakeInBricks over the same journal reads everything
+// back and gives the .apo of the bake in one go.
+struct BrickShare {
+  enum class Pass { Areas = 1, Records = 2, Samples = 3 };
+  Pass pass = Pass::Areas;
+  std::uint32_t task = 0, tasks = 1;
+};
+const char* passName(BrickShare::Pass pass);  // "areas", "records", "samples"
+std::optional<BrickShare::Pass> passNamed(std::string_view name);
+
+// Usage error without a journal or with task >= tasks; BadInput when an
+// earlier pass's entry is missing from the journal; fails as bakeInBricks.
+Result<BrickReport> bakeShareOfBricks(const BrickedPoints& detail, const CoarseSurface& coarse,
+                                      const Checked<BakeOptions>& options, const BrickShare& share,
+                                      const ProgressCallback& onProgress = {});
 
 std::string bakeReportJson(const BakeReport& report);  // bake.json, format_version 2
 

@@ -10,6 +10,7 @@
 #include "bake/bake.h"
 
 #include "bake/bake_steps.h"
+#include "bake/brick_journal.h"
 #include "bake/cell_clip.h"
 #include "bake/l21_metric.h"
 #include "bake/sampling.h"
@@ -106,8 +107,8 @@ CellId ownerOf(const Vec3f& world, int depth, const UnitCubeTransform& transform
 class BrickBake {
  public:
   BrickBake(const BrickedPoints& source, const CoarseSurface& coarse, const BakeOptions& options,
-            const ProgressCallback& onProgress)
-      : source_(source), coarse_(coarse), options_(options), onProgress_(onProgress),
+            const ProgressCallback& onProgress, const BrickShare* share = nullptr)
+      : source_(source), coarse_(coarse), options_(options), onProgress_(onProgress), share_(share),
         frame_(bake_steps::frameOf(*coarse.mesh, options)),
         bricks_(bricksHoldingCoarse(frame_.coarseUnit, options.coarseDepth, options.brickDepth)) {
     report_.depth = options.brickDepth;
@@ -120,38 +121,69 @@ class BrickBake {
     const int depth = options_.brickDepth;
     const int cells = 1 << depth;
     bake_steps::OrderFreeSum total;
-    std::uint64_t counted = 0;
+    std::uint64_t counted = 0, index = 0;
     for (int x = 0; x < cells; ++x)
       for (int y = 0; y < cells; ++y)
-        for (int z = 0; z < cells; ++z) {
+        for (int z = 0; z < cells; ++z, ++index) {
+          if (othersShare(index, BrickShare::Pass::Areas)) continue;
           const CellId id = (static_cast<CellId>(depth) << octree::kCellIdDepthShift) | octree::gridKey(x, y, z, depth);
-          auto points = load(worldBoxOf(cellOfId(id), frame_.reach, frame_.transform, true));
-          if (!points) return points.error();
-          std::vector<std::size_t> owned;
-          for (std::size_t i = 0; i < points->size(); ++i)
-            if (ownerOf(points->positions[i], depth, frame_.transform) == id) owned.push_back(i);
-          if (owned.empty()) continue;
-          auto areas = source_.areasOf(*points);
-          if (!areas) return areas.error();
-          for (const std::size_t i : owned) total.add((*areas)[i]);
-          counted += owned.size();
+          auto cell = fromJournal(brick_journal::areaName(id), brick_journal::decodeArea);
+          if (!cell) return cell.error();
+          if (!*cell) {
+            APO_RETURN_IF_ERROR(requireEarlierPass(BrickShare::Pass::Areas, brick_journal::areaName(id)));
+            auto found = cellArea(id);
+            if (!found) return found.error();
+            APO_RETURN_IF_ERROR(toJournal(brick_journal::areaName(id), brick_journal::encode(*found)));
+            *cell = std::move(found).value();
+          }
+          total.add((*cell)->sum);
+          counted += (*cell)->count;
         }
+    if (share_ && share_->pass == BrickShare::Pass::Areas) return 0.0;  // a share: no mean yet
     if (counted != source_.count)
       return internalError("bake in bricks: the cells gave {} of M's {} points", counted, source_.count);
     return counted > 0 ? total.value() / static_cast<double>(counted) : 1.0;
   }
 
-  // Pass 2: the errors recorded brick by brick, then the whole tree from them.
-  Result<octree::BuiltOctree> buildFromRecords(double meanArea) {
+  // The areas of the points cell `id` of the brick depth owns.
+  Result<brick_journal::AreaEntry> cellArea(CellId id) {
+    const int depth = options_.brickDepth;
+    auto points = load(worldBoxOf(cellOfId(id), frame_.reach, frame_.transform, true));
+    if (!points) return points.error();
+    std::vector<std::size_t> owned;
+    for (std::size_t i = 0; i < points->size(); ++i)
+      if (ownerOf(points->positions[i], depth, frame_.transform) == id) owned.push_back(i);
+    brick_journal::AreaEntry entry;
+    if (owned.empty()) return entry;
+    auto areas = source_.areasOf(*points);
+    if (!areas) return areas.error();
+    for (const std::size_t i : owned) entry.sum.add((*areas)[i]);
+    entry.count = owned.size();
+    return entry;
+  }
+
+  // Pass 2: the errors recorded brick by brick (each brick's first build;
+  // a share: its bricks' only), then the whole tree from them.
+  Status recordFirstBuilds(double meanArea) {
     const octree::BuildSettings settings = bake_steps::buildSettingsOf(options_, frame_);
-    std::vector<std::uint64_t> caps = firstCaps(settings);
-    std::vector<char> complete(bricks_.size(), 0);
+    caps_ = firstCaps(settings);
+    complete_.assign(bricks_.size(), 0);
     for (std::size_t b = 0; b < bricks_.size(); ++b) {
-      auto done = recordBrick(b, caps[b], meanArea, settings);
+      if (othersShare(b, BrickShare::Pass::Records)) continue;
+      auto done = recordBrick(b, caps_[b], meanArea, settings, BrickShare::Pass::Records);
       if (!done) return done.error();
-      complete[b] = *done;
+      complete_[b] = *done;
       reportProgress(onProgress_, 0.1 + 0.4 * static_cast<double>(b + 1) / static_cast<double>(bricks_.size()));
     }
+    return okStatus();
+  }
+
+  // The whole tree from the records; bricks whose records fall short are
+  // built again (by any task: the same bytes whoever builds them).
+  Result<octree::BuiltOctree> treeFromRecords(double meanArea) {
+    const octree::BuildSettings settings = bake_steps::buildSettingsOf(options_, frame_);
+    std::vector<std::uint64_t>& caps = caps_;
+    std::vector<char>& complete = complete_;
     for (;;) {
       records_.seal();
       report_.recordedCells = records_.size();
@@ -171,7 +203,7 @@ class BrickBake {
         // Twice the texels, and no cap once the brick could spend the
         // whole budget (then its build goes as far as any split helps).
         caps[b] = caps[b] >= settings.budgetTexels ? 0 : std::min(2 * caps[b], settings.budgetTexels);
-        auto done = recordBrick(b, caps[b], meanArea, settings);
+        auto done = recordBrick(b, caps[b], meanArea, settings, std::nullopt);
         if (!done) return done.error();
         complete[b] = *done;
       }
@@ -195,7 +227,7 @@ class BrickBake {
     const sampling::CoarseFrames coarse{&frame_.coarseUnit, &coarse_.mesh->points.positions, &frame_.coarseNormals};
     sampling::SampleCounts total;
     for (std::size_t b = 0; b < bricks_.size(); ++b) {
-      if (leaves[b].empty()) continue;
+      if (leaves[b].empty() || othersShare(b, BrickShare::Pass::Samples)) continue;
       // A ray reaches the larger of `reach` and its leaf's diagonal, and
       // meets discs no wider than `reach`, whose radii (the spacing of
       // their neighbours) were found among points within `reach` of them.
@@ -204,33 +236,73 @@ class BrickBake {
         farthest = std::max(farthest, std::sqrt(3.0f) * cells[n].width / static_cast<float>(frame_.transform.scale));
       const float margin = farthest + 2.0f * frame_.reach;
       report_.marginWorld = std::max(report_.marginWorld, static_cast<double>(margin));
-      auto points = load(worldBoxOf(bricks_[b].cell, margin, frame_.transform, false));
-      if (!points) return points.error();
-      auto search = source_.searchOver(*points);
-      if (!search) return search.error();
-      // Counted once, in the brick holding the disc's centre.
-      const Aabb own = worldBoxOf(bricks_[b].cell, 0.0f, frame_.transform, false);
-      for (std::size_t i = 0; i < points->size(); ++i)
-        if (std::sqrt(search->areas[i]) > frame_.reach && (points->positions[i].array() >= own.min.array()).all() &&
-            (points->positions[i].array() < own.max.array()).all())
-          ++report_.discsWiderThanReach;
-      Scan scan;
-      scan.points = std::move(points).value();
-      DetailSurface surface;
-      surface.detail = &scan;
-      surface.caster = search->caster.get();
-      surface.closest = search->closest.get();
-      APO_RETURN_IF_ERROR(surface.caster->ready());
-      APO_RETURN_IF_ERROR(surface.closest->ready());
-      const sampling::SampleCounts counts = sampling::sampleLeaves(built, leaves[b], coarse, surface, settings, moments);
-      total.rays += counts.rays;
-      total.hits += counts.hits;
-      total.fallbacks += counts.fallbacks;
-      total.unanswered += counts.unanswered;
+      const std::string name = brick_journal::samplesName(bricks_[b].id);
+      auto entry = fromJournal(name, brick_journal::decodeSamples);
+      if (!entry) return entry.error();
+      if (*entry && (*entry)->leaves != leaves[b]) {
+        spdlog::warn("bake: the journal's samples of brick {} are for other leaves; sampled again", b);
+        entry->reset();
+        --report_.journalEntriesReused;
+      }
+      if (!*entry) {
+        auto sampled = sampleBrick(built, bricks_[b].cell, leaves[b], margin, coarse, settings, moments);
+        if (!sampled) return sampled.error();
+        APO_RETURN_IF_ERROR(toJournal(name, brick_journal::encode(*sampled)));
+        *entry = std::move(sampled).value();
+      }
+      const brick_journal::SampleEntry& done = **entry;
+      for (std::size_t i = 0; i < done.leaves.size(); ++i) {
+        OctreeNode& leaf = built.octree.nodes[done.leaves[i]];
+        leaf.normal = done.values[i].normal;
+        leaf.weight = done.values[i].weight;
+        leaf.sides = done.values[i].sides;
+        moments[done.leaves[i]] = done.moments[i];
+      }
+      report_.discsWiderThanReach += done.discsWiderThanReach;
+      total.rays += done.counts.rays;
+      total.hits += done.counts.hits;
+      total.fallbacks += done.counts.fallbacks;
+      total.unanswered += done.counts.unanswered;
       reportProgress(onProgress_, 0.5 + 0.45 * static_cast<double>(b + 1) / static_cast<double>(bricks_.size()));
     }
-    sampling::averageInternalNodes(built.octree, moments, settings.internalNodesMayShowCoarse);
+    if (!share_) sampling::averageInternalNodes(built.octree, moments, settings.internalNodesMayShowCoarse);
     return total;
+  }
+
+  // A brick's leaves sampled against the discs of its points and those
+  // within `margin` of it.
+  Result<brick_journal::SampleEntry> sampleBrick(octree::BuiltOctree& built, const Cell& cell,
+                                                 const std::vector<std::uint32_t>& leaves, float margin,
+                                                 const sampling::CoarseFrames& coarse,
+                                                 const sampling::SamplingSettings& settings,
+                                                 std::vector<sampling::SampleMoments>& moments) {
+    auto points = load(worldBoxOf(cell, margin, frame_.transform, false));
+    if (!points) return points.error();
+    auto search = source_.searchOver(*points);
+    if (!search) return search.error();
+    brick_journal::SampleEntry entry;
+    // Counted once, in the brick holding the disc's centre.
+    const Aabb own = worldBoxOf(cell, 0.0f, frame_.transform, false);
+    for (std::size_t i = 0; i < points->size(); ++i)
+      if (std::sqrt(search->areas[i]) > frame_.reach && (points->positions[i].array() >= own.min.array()).all() &&
+          (points->positions[i].array() < own.max.array()).all())
+        ++entry.discsWiderThanReach;
+    Scan scan;
+    scan.points = std::move(points).value();
+    DetailSurface surface;
+    surface.detail = &scan;
+    surface.caster = search->caster.get();
+    surface.closest = search->closest.get();
+    APO_RETURN_IF_ERROR(surface.caster->ready());
+    APO_RETURN_IF_ERROR(surface.closest->ready());
+    entry.counts = sampling::sampleLeaves(built, leaves, coarse, surface, settings, moments);
+    entry.leaves = leaves;
+    for (const std::uint32_t n : leaves) {
+      const OctreeNode& leaf = built.octree.nodes[n];
+      entry.values.push_back({leaf.normal, leaf.weight, leaf.sides});
+      entry.moments.push_back(moments[n]);
+    }
+    return entry;
   }
 
   const bake_steps::Frame& frame() const { return frame_; }
@@ -272,7 +344,25 @@ class BrickBake {
   // `cap` texels (0: none); its cells' errors go to the records. Returns
   // whether it went as far as any split helps (so it recorded every cell
   // the whole tree's build may ask for).
-  Result<bool> recordBrick(std::size_t b, std::uint64_t cap, double meanArea, octree::BuildSettings settings) {
+  // `pass`: the pass whose share builds it (a retry: none, any task may).
+  Result<bool> recordBrick(std::size_t b, std::uint64_t cap, double meanArea, const octree::BuildSettings& settings,
+                           std::optional<BrickShare::Pass> pass) {
+    const std::string name = brick_journal::recordsName(bricks_[b].id, cap);
+    auto entry = fromJournal(name, brick_journal::decodeRecords);
+    if (!entry) return entry.error();
+    if (!*entry) {
+      if (pass) APO_RETURN_IF_ERROR(requireEarlierPass(*pass, name));
+      auto built = buildBrick(b, cap, meanArea, settings);
+      if (!built) return built.error();
+      APO_RETURN_IF_ERROR(toJournal(name, brick_journal::encode(*built)));
+      *entry = std::move(built).value();
+    }
+    records_.add((*entry)->found);
+    return (*entry)->complete;
+  }
+
+  Result<brick_journal::RecordEntry> buildBrick(std::size_t b, std::uint64_t cap, double meanArea,
+                                                octree::BuildSettings settings) {
     const Brick& brick = bricks_[b];
     // A point moves at most `reach` onto m, and its area is its spacing
     // among the points within `reach` of it.
@@ -291,14 +381,53 @@ class BrickBake {
       inBrick.coarseNormals.push_back(all.coarseNormals[i]);
     }
     settings.budgetTexels = cap;
-    std::vector<std::pair<CellId, octree::LeafError>> found;
+    brick_journal::RecordEntry entry;
     octree::ErrorExchange record;
     record.within = &brick.cell;
-    record.recorded = &found;
+    record.recorded = &entry.found;
     const octree::BuiltOctree built = octree::buildOctree(frame_.coarseUnit, inBrick, settings, record);
-    records_.add(found);
     ++report_.refinementRuns;
-    return built.refinement.stoppedBy != "budget";
+    entry.complete = built.refinement.stoppedBy != "budget";
+    return entry;
+  }
+
+  // In a share of a bake (BrickShare), whether item `index` of `pass` is
+  // another task's to do in this very pass.
+  bool othersShare(std::uint64_t index, BrickShare::Pass pass) const {
+    return share_ && share_->pass == pass && index % share_->tasks != share_->task;
+  }
+
+  // In a share of a later pass, an entry of `pass` must come from the
+  // journal: its tasks ran before.
+  Status requireEarlierPass(BrickShare::Pass pass, const std::string& name) const {
+    if (!share_ || share_->pass <= pass) return okStatus();
+    return badInput("the bake's journal has no entry {}: the {} pass must be done by every task before the {} pass",
+                    name, passName(pass), passName(share_->pass));
+  }
+
+  // An entry of the journal, decoded; nullopt when absent or undecodable
+  // (written by another version of this code: done again).
+  template <class Decode>
+  auto fromJournal(const std::string& name, Decode decode) -> Result<decltype(decode(std::string_view{}))> {
+    using Entry = decltype(decode(std::string_view{}));
+    if (!source_.journal.present()) return Entry{};
+    auto bytes = source_.journal.read(name);
+    if (!bytes) return bytes.error();
+    if (!*bytes) return Entry{};
+    Entry entry = decode(**bytes);
+    if (!entry) {
+      spdlog::warn("bake: the journal's entry {} does not decode; done again", name);
+      return Entry{};
+    }
+    ++report_.journalEntriesReused;
+    return entry;
+  }
+
+  Status toJournal(const std::string& name, const std::string& bytes) {
+    if (!source_.journal.present()) return okStatus();
+    APO_RETURN_IF_ERROR(source_.journal.write(name, bytes));
+    ++report_.journalEntriesWritten;
+    return okStatus();
   }
 
   static std::vector<Cell> cellsOf(const Octree& octree) {
@@ -321,7 +450,10 @@ class BrickBake {
   const CoarseSurface& coarse_;
   const BakeOptions& options_;
   const ProgressCallback& onProgress_;
+  const BrickShare* share_;
   bake_steps::Frame frame_;
+  std::vector<std::uint64_t> caps_;  // each brick's texel cap, by pass 2
+  std::vector<char> complete_;       // each brick's build went as far as any split helps
   std::vector<Brick> bricks_;
   octree::RecordedErrors records_;
   BrickReport report_;
@@ -355,7 +487,8 @@ Result<Bake> bakeInBricks(const BrickedPoints& detail, const CoarseSurface& coar
                options.brickDepth, report.seconds.setup);
 
   phase = Stopwatch();
-  auto built = bricks.buildFromRecords(*meanArea);
+  APO_RETURN_IF_ERROR(bricks.recordFirstBuilds(*meanArea));
+  auto built = bricks.treeFromRecords(*meanArea);
   if (!built) return built.error();
   APO_RETURN_IF_ERROR(bake_steps::checkBudgetMet(*built, options));
   report.refinement = bake_steps::refinementReport(built->refinement, options);
@@ -384,6 +517,57 @@ Result<Bake> bakeInBricks(const BrickedPoints& detail, const CoarseSurface& coar
   report.peakMemoryBytes = peakResidentBytes();
   reportProgress(onProgress, 1.0);
   return bake;
+}
+
+const char* passName(BrickShare::Pass pass) {
+  switch (pass) {
+    case BrickShare::Pass::Areas: return "areas";
+    case BrickShare::Pass::Records: return "records";
+    case BrickShare::Pass::Samples: return "samples";
+  }
+  return "?";
+}
+
+std::optional<BrickShare::Pass> passNamed(std::string_view name) {
+  for (const auto pass : {BrickShare::Pass::Areas, BrickShare::Pass::Records, BrickShare::Pass::Samples})
+    if (name == passName(pass)) return pass;
+  return std::nullopt;
+}
+
+Result<BrickReport> bakeShareOfBricks(const BrickedPoints& detail, const CoarseSurface& coarseSurface,
+                                      const Checked<BakeOptions>& checkedOptions, const BrickShare& share,
+                                      const ProgressCallback& onProgress) {
+  const BakeOptions& options = *checkedOptions;
+  if (options.brickDepth < 1) return usageError("a bake in bricks needs --brick-depth 1 or more");
+  if (!detail.journal.present()) return usageError("a share of a bake in bricks needs a journal to write to");
+  if (share.tasks == 0 || share.task >= share.tasks)
+    return usageError("task {} of {}: the task must be below the number of tasks", share.task, share.tasks);
+  if (!coarseSurface.mesh || !coarseSurface.caster || !detail.pointsIn || !detail.areasOf || !detail.searchOver)
+    return internalError("bake in bricks: a seam is missing");
+  if (detail.count == 0) return badInput("the detail surface M is empty");
+  APO_RETURN_IF_ERROR(bake_steps::validateCoarseMesh(*coarseSurface.mesh));
+  BrickBake bricks(detail, coarseSurface, options, onProgress, &share);
+  Stopwatch phase;
+  auto meanArea = bricks.meanArea();
+  if (!meanArea) return meanArea.error();
+  bricks.report().areaSeconds = phase.seconds();
+  if (share.pass == BrickShare::Pass::Areas) return bricks.report();
+  phase = Stopwatch();
+  APO_RETURN_IF_ERROR(bricks.recordFirstBuilds(*meanArea));
+  if (share.pass == BrickShare::Pass::Records) {
+    bricks.report().refineSeconds = phase.seconds();
+    return bricks.report();
+  }
+  auto built = bricks.treeFromRecords(*meanArea);
+  if (!built) return built.error();
+  APO_RETURN_IF_ERROR(bake_steps::checkBudgetMet(*built, options));
+  built->octree.transform = bricks.frame().transform;
+  bricks.report().refineSeconds = phase.seconds();
+  phase = Stopwatch();
+  auto counts = bricks.sample(*built);
+  if (!counts) return counts.error();
+  bricks.report().sampleSeconds = phase.seconds();
+  return bricks.report();
 }
 
 }  // namespace apo

@@ -42,6 +42,7 @@ std::string bakeReportJson(const BakeReport& r) {
                       {"points_loaded", b.pointsLoaded},
                       {"margin", b.marginWorld},
                       {"discs_wider_than_reach", b.discsWiderThanReach},
+                      {"journal", {{"entries_reused", b.journalEntriesReused}, {"entries_written", b.journalEntriesWritten}}},
                       {"seconds", {{"areas", b.areaSeconds}, {"refinement", b.refineSeconds}, {"sampling", b.sampleSeconds}}}};
   }
   json["seconds"] = {{"setup", r.seconds.setup},

@@ -91,6 +91,26 @@ const CLI::Validator kOneWord(
     },
     "WORD");
 
+// One scan's bake across the tasks (submitScanSplit).
+int runScanSplit(const SlurmSettings& settings, bool dryRun) {
+  if (dryRun) {
+    const ScanSplitScripts scripts = scanSplitScripts(settings);
+    std::printf("# prepare.sbatch (sbatch --output=%s)\n%s\n", scripts.prepareLog.c_str(), scripts.prepare.c_str());
+    for (std::size_t p = 0; p < scripts.passes.size(); ++p)
+      std::printf("# pass %zu (sbatch --output=%s --dependency=afterany:PREVIOUS)\n%s\n", p + 1,
+                  scripts.passLogs[p].c_str(), scripts.passes[p].c_str());
+    std::printf("# merge.sbatch (sbatch --output=%s --dependency=afterany:PASS3)\n%s", scripts.mergeLog.c_str(),
+                scripts.merge.c_str());
+    return kExitSuccess;
+  }
+  const Result<ScanSplitJobs> jobs = submitScanSplit(settings);
+  if (!jobs) return reportFailure(jobs.error());
+  std::printf("prepare job %s, pass jobs %s %s %s (%d tasks each), merge job %s; scripts and logs in %s\n",
+              jobs->prepareJob.c_str(), jobs->passJobs[0].c_str(), jobs->passJobs[1].c_str(), jobs->passJobs[2].c_str(),
+              settings.tasks, jobs->mergeJob.c_str(), (settings.outDir / "slurm").string().c_str());
+  return kExitSuccess;
+}
+
 int runSlurmCommand(CLI::App& app, const SlurmCommand& command) {
   if (Status s = applyConfigFile(app, command.arguments.configFile); !s.ok()) return reportFailure(s.error());
   if (auto options = check(runOptionsFrom(command.arguments)); !options) return reportFailure(options.error());
@@ -105,7 +125,9 @@ int runSlurmCommand(CLI::App& app, const SlurmCommand& command) {
   settings.cpusPerTask = command.cpus;
   settings.executable = fs::read_symlink("/proc/self/exe", error);
   settings.workerArguments = givenStageArguments(app);
-  if (!fs::is_directory(settings.scanDir)) return reportFailure(badInput("{}: not a folder", settings.scanDir.string()));
+  if (fs::is_regular_file(settings.scanDir)) return runScanSplit(settings, command.dryRun);
+  if (!fs::is_directory(settings.scanDir))
+    return reportFailure(badInput("{}: neither a folder of scans nor a scan file", settings.scanDir.string()));
   if (command.dryRun) {
     const SlurmScripts scripts = slurmScripts(settings);
     std::printf("# array.sbatch (sbatch --output=%s)\n%s\n# merge.sbatch (sbatch --output=%s --dependency=afterany:ARRAY)\n%s",
@@ -125,8 +147,11 @@ void addSlurmCommand(CLI::App& app, int& exitCode) {
   auto command = std::make_shared<SlurmCommand>();
   CLI::App* sub = app.add_subcommand(
       "slurm", "apo batch as a Slurm job array: N tasks, each one shard of the scans, then a merge job writing "
-               "index.html; submitted with sbatch unless --dry-run (docs/cluster.md)");
-  sub->add_option("scans", command->scanDir, "Folder searched recursively for scans by extension")->required();
+               "index.html; or, given one scan file, its bake of every point shared among N tasks (a prepare job, "
+               "three job arrays, a merge); submitted with sbatch unless --dry-run (docs/cluster.md)");
+  sub->add_option("scans", command->scanDir,
+                  "Folder searched recursively for scans by extension, or one scan file to split")
+      ->required();
   sub->add_option("-o,--out", command->outDir, "Output folder, on a file system every node sees")->required();
   sub->add_option("--tasks", command->tasks, "Tasks of the job array, one shard of the scans each")
       ->check(CLI::Range(1, kMostShards))

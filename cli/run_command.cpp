@@ -15,6 +15,7 @@ namespace {
 struct RunCommand {
   fs::path input, outDir;
   bool printManifest = false;
+  std::string split = "whole";
   StageArguments arguments;
 };
 
@@ -23,7 +24,11 @@ int runRun(CLI::App& app, const RunCommand& command, bool quiet) {
   // Every stage's options, before any stage runs.
   auto options = check(runOptionsFrom(command.arguments));
   if (!options) return reportFailure(options.error());
-  const RunSettings settings{command.input, command.outDir, *options};
+  auto part = runPartNamed(command.split);
+  if (!part) return reportFailure(part.error());
+  if (part->kind != RunPart::Kind::Whole && !(*options)->allPoints)
+    return reportFailure(usageError("--split {} splits the bake of every point: it needs --all-points", command.split));
+  const RunSettings settings{command.input, command.outDir, *options, *part};
   const auto threads = limitThreads(command.arguments.bake.threads);
   const ProgressStyle style = progressStyleForStderr(quiet);
   Progress progress(style, static_cast<int>(kRunStageCount));
@@ -34,7 +39,8 @@ int runRun(CLI::App& app, const RunCommand& command, bool quiet) {
   spdlog::set_level(level);
   if (command.printManifest) std::printf("%s\n", outcome.manifest.dump(2).c_str());
   if (!outcome.status.ok()) return reportFailure(outcome.status.error());
-  spdlog::info("run: {} -> {}", (command.outDir / "report.html").string(), command.outDir.string());
+  if (part->kind == RunPart::Kind::Whole)
+    spdlog::info("run: {} -> {}", (command.outDir / "report.html").string(), command.outDir.string());
   return kExitSuccess;
 }
 
@@ -47,6 +53,10 @@ void addRunCommand(CLI::App& app, int& exitCode) {
   sub->add_option("scan", command->input, "Scan file (" + scanExtensionList() + ")")->required();
   sub->add_option("-o,--out", command->outDir, "Output folder")->required();
   sub->add_flag("--json", command->printManifest, "Print the manifest to stdout at the end");
+  sub->add_option("--split", command->split,
+                  "A part of a run split across tasks, as `apo slurm` on one scan runs them (docs/cluster.md): "
+                  "prepare (up to m and the point store), PASS:T/N (task T's share of the bake's pass: areas, "
+                  "records, samples), whole (default; the merge)");
   addStageOptionGroups(*sub, command->arguments);
   sub->callback([sub, command, &app, &exitCode] {
     const bool quiet = app.get_option("--quiet")->count() > 0;

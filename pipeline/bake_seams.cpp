@@ -2,6 +2,7 @@
 
 #include "adapters/embree/embree_ray_caster.h"
 #include "adapters/flann/flann_search.h"
+#include "core/file_io.h"
 #include "core/timing.h"
 
 #include <fmt/format.h>
@@ -192,6 +193,21 @@ BrickedPoints brickedPoints(std::uint64_t count, std::function<Result<PointSet>(
     return brick;
   };
   return source;
+}
+
+BrickJournal brickJournalIn(const std::filesystem::path& folder) {
+  BrickJournal journal;
+  journal.read = [folder](const std::string& name) -> Result<std::optional<std::string>> {
+    std::error_code error;
+    if (!std::filesystem::exists(folder / name, error)) return std::optional<std::string>{};
+    auto bytes = readFileBytes(folder / name);
+    if (!bytes) return bytes.error();
+    return std::optional<std::string>{std::move(bytes).value()};
+  };
+  journal.write = [folder](const std::string& name, const std::string& bytes) {
+    return writeFileAtomically(folder / name, bytes);
+  };
+  return journal;
 }
 
 Result<Bake> bakeApoInBricks(const BrickedPoints& detail, const Scan& coarse, const Checked<BakeOptions>& options,

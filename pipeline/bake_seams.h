@@ -7,6 +7,7 @@
 #include "bake/bake.h"
 #include "core/closest_point.h"
 
+#include <filesystem>
 #include <functional>
 #include <memory>
 
@@ -24,6 +25,10 @@ Result<Bake> bakeApo(const Scan& detail, const Scan& coarse, const Checked<BakeO
 // production seams of the bake in bricks: FLANN for their areas and closest
 // point, Embree for their discs.
 BrickedPoints brickedPoints(std::uint64_t count, std::function<Result<PointSet>(const Aabb& box)> pointsIn);
+// A journal of the bake in bricks kept as files in `folder`, one per entry
+// (written to a temporary name and renamed, so a killed bake leaves whole
+// entries only): what a bake run again resumes from.
+BrickJournal brickJournalIn(const std::filesystem::path& folder);
 // bakeInBricks over those seams and an Embree BVH of m (options.brickDepth > 0).
 Result<Bake> bakeApoInBricks(const BrickedPoints& detail, const Scan& coarse, const Checked<BakeOptions>& options,
                              const ProgressCallback& onProgress = {});

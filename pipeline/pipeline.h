@@ -90,9 +90,24 @@ Result<Checked<RunOptions>> check(const RunOptions& options);
 // compares it.
 nlohmann::ordered_json optionsJson(const RunOptions& options);
 
+// Which part of a run (`apo run --split`): the whole, or for `apo slurm`
+// on one scan (docs/cluster.md, "One scan across tasks") the part up to m
+// and the point store, kept in OUTDIR for the tasks (Prepare), or one
+// task's share of a pass of the bake in bricks from them (Share). The
+// merge is a whole run: it finds the store and the bake's journal complete.
+struct RunPart {
+  enum class Kind { Whole, Prepare, Share };
+  Kind kind = Kind::Whole;
+  BrickShare share;  // Kind::Share
+};
+// "whole", "prepare", or PASS:T/N (PASS areas, records or samples; task T
+// of N); a Usage error naming the text otherwise.
+Result<RunPart> runPartNamed(std::string_view text);
+
 struct RunSettings {
   std::filesystem::path input, outDir;
   Checked<RunOptions> options;
+  RunPart part;
 };
 
 struct RunOutcome {
@@ -196,6 +211,27 @@ SlurmScripts slurmScripts(const SlurmSettings& settings);
 struct SlurmJobs {
   std::string arrayJob, mergeJob;  // Slurm's job ids
 };
+
+// `apo slurm SCAN --tasks N` on one scan file (docs/cluster.md, "One scan
+// across tasks"), scanDir then naming the file: a prepare job (`apo run
+// --split prepare`: up to m and the point store), the bake's three passes
+// each a job array of N tasks (`--split PASS:T/N`, requeued after a node
+// failure), and the merge (a whole run, finding the store and the bake's
+// journal complete), each after the one before (afterany: a pass that
+// failed leaves its work to the merge, which does it itself).
+struct ScanSplitScripts {
+  std::string prepare, merge;
+  std::array<std::string, 3> passes;  // areas, records, samples
+  std::filesystem::path prepareLog, mergeLog;
+  std::array<std::filesystem::path, 3> passLogs;
+};
+ScanSplitScripts scanSplitScripts(const SlurmSettings& settings);
+
+struct ScanSplitJobs {
+  std::string prepareJob, mergeJob;
+  std::array<std::string, 3> passJobs;
+};
+Result<ScanSplitJobs> submitScanSplit(const SlurmSettings& settings);
 
 // Writes the scripts to OUTDIR/slurm/ and submits them: the array, then the
 // merge with --dependency=afterany on it. sbatch's own error, named, when it

@@ -14,6 +14,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include <cstdio>
 #include <optional>
 #include <string>
 
@@ -42,6 +43,46 @@ constexpr const char* kScratchFolder = ".scratch";
 // The bricks' depth for a store's every point (64 at most: a brick of a
 // 100-million-point scan holds a few million).
 constexpr int kStoreBrickDepth = 2;
+// Where the part of a split run before the bake leaves m for the tasks, in
+// the scratch folder: the local frame's floats, as the run holds them.
+constexpr const char* kSplitCoarseFile = "m.ply";
+
+fs::path storeFolderOf(const RunSettings& settings) { return settings.outDir / kScratchFolder / "points"; }
+
+// The bake options a store's points are baked with: --brick-depth, or kStoreBrickDepth.
+BakeOptions storeBakeOptions(const RunOptions& options) {
+  BakeOptions bake = options.bake;
+  if (bake.brickDepth == 0) bake.brickDepth = std::min(kStoreBrickDepth, bake.coarseDepth);
+  return bake;
+}
+
+// The bake in bricks keeps each brick's finished work in the store's
+// folder (removed with it), under a key of the store, m and the bake's
+// options: a run killed in the bake resumes from its finished bricks, and
+// the tasks of a split run share it with the merge.
+Result<fs::path> journalFolder(const PointStore& store, const Scan& coarse, const RunOptions& options) {
+  auto described = readFileBytes(store.folder() / "store.json");
+  if (!described) return described.error();
+  const auto bytesOf = [](const auto& items) {
+    return std::string_view(reinterpret_cast<const char*>(items.data()), items.size() * sizeof(items[0]));
+  };
+  std::string key = *described;
+  key += optionsJson(options)["bake"].dump();
+  key += fmt::format(" brick depth {}", storeBakeOptions(options).brickDepth);
+  key += sha256OfBytes(bytesOf(coarse.points.positions));
+  key += sha256OfBytes(bytesOf(coarse.points.normals));
+  key += sha256OfBytes(bytesOf(coarse.triangles));
+  return store.folder() / "journal" / sha256OfBytes(key).substr(0, 16);
+}
+
+// M's every point from the store, baked in bricks with the journal.
+Result<BrickedPoints> storePoints(const PointStore& store, const Scan& coarse, const RunOptions& options) {
+  BrickedPoints points = brickedPoints(store.size(), [&store](const Aabb& box) { return store.pointsIn(box); });
+  auto journal = journalFolder(store, coarse, options);
+  if (!journal) return journal.error();
+  points.journal = brickJournalIn(*journal);
+  return points;
+}
 
 class Run {
  public:
@@ -59,6 +100,7 @@ class Run {
       APO_RETURN_IF_ERROR(stage(kReconstruct, [&] { return reconstruct(); }));
     }
     APO_RETURN_IF_ERROR(stage(kSimplify, [&] { return simplify(); }));
+    if (settings_.part.kind == RunPart::Kind::Prepare) return leaveForTasks();
     APO_RETURN_IF_ERROR(stage(kBake, [&] { return bake(); }));
     APO_RETURN_IF_ERROR(stage(kRender, [&] { return render(); }));
     if (settings_.options->exporting.enabled)
@@ -81,6 +123,21 @@ class Run {
   const Json& manifest() const { return manifest_; }
 
  private:
+  // The part of a split run before the bake: m (as held, for the tasks'
+  // journal key to be the merge's) beside the store; the manifest says
+  // `prepared`.
+  Status leaveForTasks() {
+    if (data_.store) {
+      APO_RETURN_IF_ERROR(writePly(settings_.outDir / kScratchFolder / kSplitCoarseFile, data_.coarse));
+      spdlog::info("run: m and the store of {} points left in {} for the bake's tasks", data_.store->size(),
+                   (settings_.outDir / kScratchFolder).string());
+    } else {
+      spdlog::info("run: no point store (the scan is read whole): the merge bakes it, the tasks have nothing to share");
+    }
+    manifest_["status"] = "prepared";
+    return save();
+  }
+
   template <class Body>
   Status stage(StageIndex index, Body&& body) {
     Json& record = manifest_["stages"][index];
@@ -144,7 +201,7 @@ class Run {
       return okStatus();
     }
     auto store = writePointStore(settings_.input, data_.scan, report.normalNeighbours,
-                                 settings_.outDir / kScratchFolder / "points",
+                                 storeFolderOf(settings_),
                                  [this, readShare](double f) { progress_.setFraction(readShare + (1.0 - readShare) * f); });
     if (!store) return aboutInput(settings_.input, store.error());
     const PointStoreReport& r = store->report();
@@ -215,13 +272,11 @@ class Run {
   // The scan's points as detail when they are in a store: every point, in
   // bricks (--brick-depth, or kStoreBrickDepth).
   Result<Bake> bakeFromStore(const ProgressCallback& onProgress) {
-    BakeOptions options = *partOf(settings_.options, &RunOptions::bake);
-    if (options.brickDepth == 0) options.brickDepth = std::min(kStoreBrickDepth, options.coarseDepth);
-    auto checked = check(options);
+    auto checked = check(storeBakeOptions(*settings_.options));
     if (!checked) return checked.error();
-    const PointStore& store = *data_.store;
-    return bakeApoInBricks(brickedPoints(store.size(), [&store](const Aabb& box) { return store.pointsIn(box); }),
-                           data_.coarse, *checked, onProgress);
+    auto points = storePoints(*data_.store, data_.coarse, *settings_.options);
+    if (!points) return points.error();
+    return bakeApoInBricks(*points, data_.coarse, *checked, onProgress);
   }
 
   // --detail-source auto on a point scan: the APO baked from M and the one
@@ -399,9 +454,67 @@ class Run {
   PipelineData data_;
 };
 
+// One task's share of a split run's bake (RunPart::Kind::Share): the store
+// and m the prepared part left, the journal the tasks share; no manifest
+// (the prepared part's and the merge's).
+Status bakeShare(const RunSettings& settings, Progress& progress) {
+  const BrickShare& share = settings.part.share;
+  progress.startStage(kRunStages[kBake]);
+  const fs::path storeFolder = storeFolderOf(settings);
+  std::error_code ignored;
+  if (!fs::exists(storeFolder / "store.json", ignored)) {
+    const fs::path manifestPath = settings.outDir / "manifest.json";
+    if (!fs::exists(manifestPath, ignored))
+      return badInput("{}: no prepared run (run `apo run --split prepare` first)", settings.outDir.string());
+    spdlog::info("bake: {} pass, task {} of {}: no point store (the scan is read whole), nothing to share",
+                 passName(share.pass), share.task, share.tasks);
+    progress.finishStage("nothing to share");
+    return okStatus();
+  }
+  auto store = PointStore::open(storeFolder);
+  if (!store) return store.error();
+  auto coarse = readScan(settings.outDir / kScratchFolder / kSplitCoarseFile, ScanFormat::Ply);
+  if (!coarse) return coarse.error();
+  auto options = check(storeBakeOptions(*settings.options));
+  if (!options) return options.error();
+  auto points = storePoints(*store, *coarse, *settings.options);
+  if (!points) return points.error();
+  auto coarseCaster = makeEmbreeMeshCaster(*coarse);
+  if (!coarseCaster) return coarseCaster.error();
+  auto report = bakeShareOfBricks(*points, {&*coarse, coarseCaster->get()}, *options, share,
+                                  [&progress](double fraction) { progress.setFraction(fraction); });
+  if (!report) return aboutInput(settings.input, report.error());
+  progress.finishStage(fmt::format("{} pass, task {} of {}: {} entries written, {} read back, {} points loaded",
+                                   passName(share.pass), share.task, share.tasks, report->journalEntriesWritten,
+                                   report->journalEntriesReused, report->pointsLoaded));
+  return okStatus();
+}
+
 }  // namespace
 
+Result<RunPart> runPartNamed(std::string_view text) {
+  RunPart part;
+  if (text == "whole") return part;
+  if (text == "prepare") {
+    part.kind = RunPart::Kind::Prepare;
+    return part;
+  }
+  const std::size_t colon = text.find(':'), slash = text.find('/');
+  const auto pass = passNamed(text.substr(0, colon));
+  unsigned task = 0, tasks = 0;
+  char extra = 0;
+  if (colon == std::string_view::npos || slash == std::string_view::npos || !pass ||
+      std::sscanf(std::string(text.substr(colon + 1)).c_str(), "%u/%u%c", &task, &tasks, &extra) != 2 || tasks == 0 ||
+      task >= tasks)
+    return usageError("--split {}: expected whole, prepare, or PASS:T/N (PASS areas, records or samples; task T below N)",
+                      text);
+  part.kind = RunPart::Kind::Share;
+  part.share = {*pass, task, tasks};
+  return part;
+}
+
 RunOutcome runPipeline(const RunSettings& settings, Progress& progress) {
+  if (settings.part.kind == RunPart::Kind::Share) return {bakeShare(settings, progress), {}};
   Run run(settings, progress);
   Status status = run.execute();
   if (!status.ok()) run.recordFailure(status.error());

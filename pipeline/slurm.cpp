@@ -14,6 +14,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <cerrno>
 #include <cstring>
@@ -149,6 +150,72 @@ Result<SlurmJobs> submitSlurm(const SlurmSettings& settings) {
   jobs.arrayJob = *array;
   auto merge = submit({"sbatch", "--parsable", "--output=" + scripts.mergeLog.string(), "--dependency=afterany:" + jobs.arrayJob,
                        (folder / "merge.sbatch").string()});
+  if (!merge) return merge.error();
+  jobs.mergeJob = *merge;
+  return jobs;
+}
+
+namespace {
+
+constexpr std::array<const char*, 3> kPassNames = {"areas", "records", "samples"};
+
+// `apo run` on the scan with the workers' options and --all-points (the
+// split is of the bake of every point).
+std::string runCommand(const SlurmSettings& s, const std::string& split) {
+  std::vector<std::string> arguments = s.workerArguments;
+  if (std::find(arguments.begin(), arguments.end(), "--all-points") == arguments.end())
+    arguments.push_back("--all-points");
+  return fmt::format("exec {} run {} -o {} --split {} --threads \"${{SLURM_CPUS_PER_TASK:-1}}\"{}\n",
+                     bashWord(s.executable.string()), bashWord(s.scanDir.string()), bashWord(s.outDir.string()), split,
+                     bashWords(arguments));
+}
+
+}  // namespace
+
+ScanSplitScripts scanSplitScripts(const SlurmSettings& s) {
+  ScanSplitScripts scripts;
+  const fs::path logs = s.outDir / "slurm";
+  scripts.prepareLog = logs / "prepare.log";
+  scripts.mergeLog = logs / "merge.log";
+  // --requeue: a job stopped by preemption or a node failure runs again;
+  // the store and the journal's finished entries are reused.
+  scripts.prepare = "#!/bin/bash\n" + sbatchOptions(s, "apo-prepare") + "#SBATCH --requeue\nset -eu\n" +
+                    runCommand(s, "prepare");
+  for (std::size_t p = 0; p < kPassNames.size(); ++p) {
+    scripts.passLogs[p] = logs / fmt::format("{}-%a.log", kPassNames[p]);
+    scripts.passes[p] = "#!/bin/bash\n" + sbatchOptions(s, fmt::format("apo-{}", kPassNames[p])) +
+                        fmt::format("#SBATCH --array=0-{}\n#SBATCH --requeue\nset -eu\n", s.tasks - 1) +
+                        runCommand(s, fmt::format("{}:\"$SLURM_ARRAY_TASK_ID\"/{}", kPassNames[p], s.tasks));
+  }
+  scripts.merge = "#!/bin/bash\n" + sbatchOptions(s, "apo-merge") + "#SBATCH --requeue\nset -eu\n" + runCommand(s, "whole");
+  return scripts;
+}
+
+Result<ScanSplitJobs> submitScanSplit(const SlurmSettings& settings) {
+  const fs::path folder = settings.outDir / "slurm";
+  std::error_code error;
+  fs::create_directories(folder, error);
+  if (error) return internalError("{}: cannot create: {}", folder.string(), error.message());
+  const ScanSplitScripts scripts = scanSplitScripts(settings);
+  const auto submitAfter = [&](const std::string& name, const std::string& script, const fs::path& log,
+                               const std::string& after) -> Result<std::string> {
+    APO_RETURN_IF_ERROR(writeFileAtomically(folder / name, script));
+    std::vector<std::string> arguments = {"sbatch", "--parsable", "--output=" + log.string()};
+    if (!after.empty()) arguments.push_back("--dependency=afterany:" + after);
+    arguments.push_back((folder / name).string());
+    return submit(arguments);
+  };
+  ScanSplitJobs jobs;
+  auto prepare = submitAfter("prepare.sbatch", scripts.prepare, scripts.prepareLog, "");
+  if (!prepare) return prepare.error();
+  jobs.prepareJob = *prepare;
+  std::string after = jobs.prepareJob;
+  for (std::size_t p = 0; p < kPassNames.size(); ++p) {
+    auto pass = submitAfter(fmt::format("{}.sbatch", kPassNames[p]), scripts.passes[p], scripts.passLogs[p], after);
+    if (!pass) return pass.error();
+    jobs.passJobs[p] = after = *pass;
+  }
+  auto merge = submitAfter("merge.sbatch", scripts.merge, scripts.mergeLog, after);
   if (!merge) return merge.error();
   jobs.mergeJob = *merge;
   return jobs;

@@ -1042,6 +1042,14 @@ std::string detailChoiceRow(const Json* choice) {
   return row("baked from", text);
 }
 
+// A resumed bake's work read back from its journal; nothing for a bake
+// run in one go, or a manifest made before the key.
+std::string resumedBricks(const Json* bricks) {
+  const std::optional<double> reused = numberAt(bricks, {"journal", "entries_reused"});
+  if (!reused || *reused <= 0) return {};
+  return "; resumed: " + count(reused) + " cells' and bricks' work read back from the journal of the run killed before";
+}
+
 // When the bake went brick by brick (bake.json bricks, docs/bake.md
 // "Bricks"), a row saying how; nothing otherwise.
 std::string bricksRow(const Json* bake) {
@@ -1051,7 +1059,7 @@ std::string bricksRow(const Json* bake) {
                                     count(numberAt(bricks, {"depth"})) + ", " + count(numberAt(bricks, {"refinement_runs"})) +
                                     " brick builds, at most " + count(numberAt(bricks, {"largest_brick_points"})) +
                                     " points held at once; " + count(numberAt(bricks, {"discs_wider_than_reach"})) +
-                                    " discs wider than the rays' reach");
+                                    " discs wider than the rays' reach" + resumedBricks(bricks));
 }
 
 // When the bake took M's triangles in Morton order (bake.json

@@ -2,6 +2,9 @@
 // octree, its normals and the encoded texture must be the same.
 #include "bake/bake.h"
 
+#include "bake/brick_journal.h"
+
+#include "adapters/embree/embree_ray_caster.h"
 #include "pipeline/bake_seams.h"
 #include "tests/bake/bumpy_sphere.h"
 #include "tests/test_support.h"
@@ -9,7 +12,11 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <cstring>
+#include <limits>
+#include <map>
 #include <random>
+#include <string>
 
 namespace apo {
 namespace {
@@ -142,6 +149,185 @@ TEST_F(BrickBake, BricksGiveTheOnePieceBakeWithTheErrorThresholdAlone) {
   ASSERT_TRUE(bricks.ok()) << bricks.error().message;
   EXPECT_EQ(bricks->report.bricks->refinementRuns, bricks->report.bricks->bricks);  // none built again
   expectSameBake(*bricks, *whole);
+}
+
+// M's points held in memory, served a box at a time, with a journal kept
+// in `entries` that refuses every write after `writesLeft` of them (as a
+// killed bake stops writing).
+struct JournalInMemory {
+  std::map<std::string, std::string> entries;
+  std::uint64_t writesLeft = std::numeric_limits<std::uint64_t>::max();
+
+  BrickJournal journal() {
+    BrickJournal journal;
+    journal.read = [this](const std::string& name) -> Result<std::optional<std::string>> {
+      const auto found = entries.find(name);
+      if (found == entries.end()) return std::optional<std::string>{};
+      return std::optional<std::string>{found->second};
+    };
+    journal.write = [this](const std::string& name, const std::string& bytes) -> Status {
+      if (writesLeft == 0) return internalError("killed");
+      --writesLeft;
+      entries[name] = bytes;
+      return okStatus();
+    };
+    return journal;
+  }
+};
+
+BrickedPoints bricked(const Scan& scan, const BrickJournal& journal) {
+  BrickedPoints source = brickedPoints(scan.points.size(), [&scan](const Aabb& box) -> Result<PointSet> {
+    PointSet inside;
+    for (std::size_t i = 0; i < scan.points.size(); ++i) {
+      const Vec3f& p = scan.points.positions[i];
+      if ((p.array() < box.min.array()).any() || (p.array() > box.max.array()).any()) continue;
+      inside.positions.push_back(p);
+      inside.normals.push_back(scan.points.normals[i]);
+    }
+    return inside;
+  });
+  source.journal = journal;
+  return source;
+}
+
+TEST_F(BrickBake, AKilledBakeResumesFromItsFinishedBricks) {
+  const std::uint64_t budget = 96 << 10;
+  const Checked<BakeOptions> options = test::checked(bakeOptions(budget, 2));
+  auto whole = bake(budget, 0);
+  ASSERT_TRUE(whole.ok()) << whole.error().message;
+
+  JournalInMemory all;
+  auto fresh = bakeApoInBricks(bricked(*points_, all.journal()), *coarse_, options);
+  ASSERT_TRUE(fresh.ok()) << fresh.error().message;
+  const BrickReport& freshReport = *fresh->report.bricks;
+  const std::uint64_t entries = all.entries.size();
+  EXPECT_EQ(freshReport.journalEntriesWritten, entries);
+  EXPECT_EQ(freshReport.journalEntriesReused, 0u);
+  // Every cell of pass 1, every brick build of pass 2, every brick of pass 3.
+  EXPECT_EQ(entries, 64u + freshReport.refinementRuns + freshReport.bricks);
+
+  // Killed after half its entries were written: run again, it does only the rest.
+  JournalInMemory half;
+  half.writesLeft = entries / 2;
+  auto killed = bakeApoInBricks(bricked(*points_, half.journal()), *coarse_, options);
+  ASSERT_FALSE(killed.ok());
+  EXPECT_EQ(half.entries.size(), entries / 2);
+  half.writesLeft = std::numeric_limits<std::uint64_t>::max();
+  auto resumed = bakeApoInBricks(bricked(*points_, half.journal()), *coarse_, options);
+  ASSERT_TRUE(resumed.ok()) << resumed.error().message;
+  EXPECT_EQ(resumed->report.bricks->journalEntriesReused, entries / 2);
+  EXPECT_EQ(resumed->report.bricks->journalEntriesWritten, entries - entries / 2);
+  EXPECT_LT(resumed->report.bricks->pointsLoaded, freshReport.pointsLoaded);
+  expectSameBake(*resumed, *whole);
+
+  // Everything in the journal: no point is loaded again. One entry damaged
+  // (cut short) is done again.
+  all.entries.begin()->second.resize(all.entries.begin()->second.size() / 2);
+  auto again = bakeApoInBricks(bricked(*points_, all.journal()), *coarse_, options);
+  ASSERT_TRUE(again.ok()) << again.error().message;
+  EXPECT_EQ(again->report.bricks->journalEntriesReused, entries - 1);
+  EXPECT_EQ(again->report.bricks->journalEntriesWritten, 1u);
+  EXPECT_LT(again->report.bricks->pointsLoaded, freshReport.pointsLoaded / 10);
+  expectSameBake(*again, *whole);
+}
+
+TEST_F(BrickBake, ThreeTasksSharingTheBricksGiveTheBakeInOnePiece) {
+  const std::uint64_t budget = 96 << 10;
+  const Checked<BakeOptions> options = test::checked(bakeOptions(budget, 2));
+  auto whole = bake(budget, 0);
+  ASSERT_TRUE(whole.ok()) << whole.error().message;
+  JournalInMemory shared;
+  const BrickedPoints source = bricked(*points_, shared.journal());
+
+  auto coarseCaster = makeEmbreeMeshCaster(*coarse_);
+  ASSERT_TRUE(coarseCaster.ok());
+  const CoarseSurface coarse{coarse_, coarseCaster->get()};
+
+  // A pass before the one it needs is refused, naming what is missing.
+  auto early = bakeShareOfBricks(source, coarse, options, {BrickShare::Pass::Records, 0, 3});
+  ASSERT_FALSE(early.ok());
+  EXPECT_THAT(early.error().message, HasSubstr("the areas pass must be done by every task"));
+
+  std::uint64_t samplesWritten = 0;
+  for (const auto pass : {BrickShare::Pass::Areas, BrickShare::Pass::Records, BrickShare::Pass::Samples})
+    for (std::uint32_t task = 0; task < 3; ++task) {
+      const std::size_t before = shared.entries.size();
+      auto share = bakeShareOfBricks(source, coarse, options, {pass, task, 3});
+      ASSERT_TRUE(share.ok()) << passName(pass) << " " << task << ": " << share.error().message;
+      EXPECT_GT(shared.entries.size(), before) << passName(pass) << " " << task << " wrote nothing";
+      if (pass == BrickShare::Pass::Samples) samplesWritten += share->journalEntriesWritten;
+    }
+  EXPECT_GE(samplesWritten, 3u);
+  // The merge: every entry read back, no point loaded, the same bake.
+  auto merged = bakeInBricks(source, coarse, options);
+  ASSERT_TRUE(merged.ok()) << merged.error().message;
+  EXPECT_EQ(merged->report.bricks->journalEntriesWritten, 0u);
+  EXPECT_EQ(merged->report.bricks->journalEntriesReused, shared.entries.size());
+  EXPECT_EQ(merged->report.bricks->pointsLoaded, 0u);
+  expectSameBake(*merged, *whole);
+  EXPECT_FALSE(bakeShareOfBricks(source, coarse, options, {BrickShare::Pass::Areas, 3, 3}).ok());
+}
+
+TEST(BrickJournal, EntriesReadBackAsWrittenAndDamagedOnesAreRefused) {
+  brick_journal::RecordEntry records;
+  records.complete = true;
+  octree::LeafError error;
+  error.variation = 0.25;
+  error.twoSided = 0.125;
+  error.sideAxis = 2;
+  error.deferToCoarse = true;
+  records.found = {{7, error}, {(octree::CellId{3} << octree::kCellIdDepthShift) | 5, octree::LeafError{}}};
+  const std::string bytes = brick_journal::encode(records);
+  const auto back = brick_journal::decodeRecords(bytes);
+  ASSERT_TRUE(back.has_value());
+  EXPECT_TRUE(back->complete);
+  ASSERT_EQ(back->found.size(), 2u);
+  EXPECT_EQ(back->found[0].first, 7u);
+  EXPECT_EQ(back->found[0].second.variation, 0.25);
+  EXPECT_EQ(back->found[0].second.twoSided, 0.125);
+  EXPECT_EQ(back->found[0].second.sideAxis, 2);
+  EXPECT_TRUE(back->found[0].second.deferToCoarse);
+  EXPECT_EQ(back->found[1].first, records.found[1].first);
+
+  brick_journal::SampleEntry samples;
+  samples.leaves = {4, 9};
+  samples.values.resize(2);
+  samples.values[0].normal = Vec3f(0, 0.6f, 0.8f);
+  samples.values[0].weight = 0.03;
+  samples.values[1].sides[1] = Vec3f(1, 0, 0);
+  samples.moments.resize(2);
+  samples.moments[1].weight = 2.5;
+  samples.moments[1].sum = Eigen::Vector3d(1, -2, 3);
+  samples.counts.rays = 11;
+  samples.discsWiderThanReach = 1;
+  const auto sampled = brick_journal::decodeSamples(brick_journal::encode(samples));
+  ASSERT_TRUE(sampled.has_value());
+  EXPECT_EQ(sampled->leaves, samples.leaves);
+  EXPECT_EQ(sampled->values[0].normal, samples.values[0].normal);
+  EXPECT_EQ(sampled->values[0].weight, 0.03);
+  EXPECT_EQ(sampled->values[1].sides[1], samples.values[1].sides[1]);
+  EXPECT_EQ(sampled->moments[1].weight, 2.5);
+  EXPECT_EQ(sampled->moments[1].sum, samples.moments[1].sum);
+  EXPECT_EQ(sampled->counts.rays, 11u);
+  EXPECT_EQ(sampled->discsWiderThanReach, 1u);
+
+  brick_journal::AreaEntry area;
+  area.sum.add(0.5f);
+  area.sum.add(0.25f);
+  area.count = 2;
+  const auto areaBack = brick_journal::decodeArea(brick_journal::encode(area));
+  ASSERT_TRUE(areaBack.has_value());
+  EXPECT_EQ(areaBack->sum.value(), 0.75);
+  EXPECT_EQ(areaBack->count, 2u);
+
+  // Cut short, one byte too many, another kind, a count beyond the bytes.
+  EXPECT_FALSE(brick_journal::decodeRecords(bytes.substr(0, bytes.size() - 1)));
+  EXPECT_FALSE(brick_journal::decodeRecords(bytes + "x"));
+  EXPECT_FALSE(brick_journal::decodeSamples(bytes));
+  std::string huge = bytes;
+  const std::uint64_t claimed = std::uint64_t{1} << 60;
+  std::memcpy(huge.data() + 7, &claimed, sizeof claimed);  // after magic, kind, version and the flag
+  EXPECT_FALSE(brick_journal::decodeRecords(huge));
 }
 
 TEST(BrickOptions, BrickDepthIsCheckedAgainstTheCoarseDepth) {
