@@ -355,6 +355,7 @@ class Run {
       std::error_code error;
       fs::remove_all(data_.store->folder(), error);
       if (error) spdlog::warn("could not remove the point store {}: {}", data_.store->folder().string(), error.message());
+      fs::remove(settings_.outDir / kScratchFolder / kSplitCoarseFile, error);  // a split run's
       fs::remove(settings_.outDir / kScratchFolder, error);
       data_.store.reset();
     }

@@ -134,6 +134,48 @@ TEST(RunCommand, AllPointsBakesEveryPointOfALargeScanThenRemovesItsStore) {
   EXPECT_FALSE(fs::exists(dir / "out" / ".scratch"));
 }
 
+// One scan's run split as `apo slurm SCAN --tasks 2` runs it: the part up to
+// m, each pass's two shares, then the merge, which reads every brick's work
+// back from the journal and writes the whole run's bytes.
+TEST(RunCommand, ARunSplitAcrossTasksGivesTheWholeRunsBytes) {
+  const fs::path dir = test::freshTempDir();
+  const fs::path mesh = writeMeshScan(dir / "sphere.ply");
+  const fs::path points = dir / "points.ply";
+  ASSERT_EQ(apo(fmt::format("simulate-scan '{}' -o '{}' --views 6 --rays 120", mesh.string(), points.string())).exitCode, 0);
+  const std::string options = fmt::format("{} --max-scan-points 5000 --all-points --detail-source points", kQuick);
+  const auto run = [&](const fs::path& out, const std::string& split) {
+    return apo(fmt::format("run '{}' -o '{}' {} --split {}", points.string(), out.string(), options, split));
+  };
+  const auto whole = run(dir / "whole", "whole");
+  ASSERT_EQ(whole.exitCode, 0) << whole.output;
+
+  const fs::path out = dir / "split";
+  const auto early = run(out, "records:0/2");
+  EXPECT_EQ(early.exitCode, 2) << early.output;
+  EXPECT_THAT(early.output, HasSubstr("no prepared run"));
+  ASSERT_EQ(run(out, "prepare").exitCode, 0);
+  EXPECT_EQ(readJson(out / "manifest.json")["status"], "prepared");
+  const auto outOfOrder = run(out, "records:1/2");
+  EXPECT_EQ(outOfOrder.exitCode, 2) << outOfOrder.output;
+  EXPECT_THAT(outOfOrder.output, HasSubstr("the areas pass must be done by every task"));
+  for (const char* pass : {"areas", "records", "samples"})
+    for (int task = 0; task < 2; ++task) {
+      const auto share = run(out, fmt::format("{}:{}/2", pass, task));
+      ASSERT_EQ(share.exitCode, 0) << share.output;
+    }
+  const auto merge = run(out, "whole");
+  ASSERT_EQ(merge.exitCode, 0) << merge.output;
+  const nlohmann::json bricks = readJson(out / "manifest.json")["results"]["bake"]["bricks"];
+  EXPECT_EQ(bricks["journal"]["entries_written"], 0) << "the merge did a brick's work again";
+  EXPECT_GT(bricks["journal"]["entries_reused"].get<int>(), 64);
+  EXPECT_EQ(bricks["points_loaded"], 0);
+  for (const char* file : {"m.ply", "scan.apo", "texture.png", "asset.glb"})
+    EXPECT_EQ(fileBytes(out / file), fileBytes(dir / "whole" / file)) << file;
+  EXPECT_FALSE(fs::exists(out / ".scratch"));
+  EXPECT_EQ(run(dir / "bad", "samples:2/2").exitCode, 1);
+  EXPECT_EQ(apo(fmt::format("run '{}' -o '{}' {} --split prepare", points.string(), (dir / "nope").string(), kQuick)).exitCode, 1);
+}
+
 // Mean angle between the filtered lookup of OUTDIR/scan.apo and the bumpy
 // sphere's analytic normals, at the centroids of m's faces.
 double apoErrorAgainstShape(const fs::path& outDir, const test::BumpySphere& shape) {
@@ -632,6 +674,47 @@ fs::path writeProgram(const fs::path& path, const std::string& body) {
   EXPECT_TRUE(writeFileAtomically(path, "#!/bin/bash\n" + body).ok());
   fs::permissions(path, fs::perms::owner_all);
   return path;
+}
+
+TEST(SlurmScripts, OneScansTasksRunTheirShareOfEachPassWithEveryPathAndOptionIntact) {
+  const fs::path dir = test::freshTempDir();
+  SlurmSettings settings;
+  settings.scanDir = dir / "scan of 'lab' $HOME.laz";
+  settings.outDir = dir / "out `date`";
+  settings.tasks = 5;
+  settings.cpusPerTask = 2;
+  settings.executable = writeProgram(dir / "fake apo", "for a in \"$@\"; do echo \"[$a]\"; done\n");
+  settings.workerArguments = {"--budget", "1MiB", "--config", "a b;'c'.toml"};
+  const ScanSplitScripts scripts = scanSplitScripts(settings);
+  EXPECT_THAT(scripts.prepare, Not(HasSubstr("--array")));
+  EXPECT_THAT(scripts.merge, Not(HasSubstr("--array")));
+  const std::string rest = "[--threads]\n[2]\n[--budget]\n[1MiB]\n[--config]\n[a b;'c'.toml]\n[--all-points]\n";
+  const auto ran = [&](const std::string& script, const char* name) {
+    EXPECT_TRUE(writeFileAtomically(dir / name, script).ok());
+    const auto task = test::runCommand(
+        fmt::format("SLURM_ARRAY_TASK_ID=3 SLURM_CPUS_PER_TASK=2 bash '{}'", (dir / name).string()));
+    EXPECT_EQ(task.exitCode, 0) << task.output;
+    return task.output;
+  };
+  const auto expected = [&](const std::string& split) {
+    return fmt::format("[run]\n[{}]\n[-o]\n[{}]\n[--split]\n[{}]\n", settings.scanDir.string(), settings.outDir.string(),
+                       split) +
+           rest;
+  };
+  EXPECT_EQ(ran(scripts.prepare, "prepare.sbatch"), expected("prepare"));
+  const char* passes[] = {"areas", "records", "samples"};
+  for (std::size_t p = 0; p < 3; ++p) {
+    EXPECT_THAT(scripts.passes[p], HasSubstr("#SBATCH --array=0-4\n"));
+    EXPECT_THAT(scripts.passes[p], HasSubstr("#SBATCH --requeue\n"));
+    EXPECT_EQ(scripts.passLogs[p], settings.outDir / "slurm" / fmt::format("{}-%a.log", passes[p]));
+    EXPECT_EQ(ran(scripts.passes[p], "pass.sbatch"), expected(fmt::format("{}:3/5", passes[p])));
+  }
+  EXPECT_EQ(ran(scripts.merge, "merge.sbatch"), expected("whole"));
+  // --all-points given is not given twice.
+  settings.workerArguments = {"--all-points"};
+  EXPECT_EQ(ran(scanSplitScripts(settings).merge, "merge.sbatch"),
+            fmt::format("[run]\n[{}]\n[-o]\n[{}]\n[--split]\n[whole]\n[--threads]\n[2]\n[--all-points]\n",
+                        settings.scanDir.string(), settings.outDir.string()));
 }
 
 TEST(SlurmScripts, EachTaskRunsItsShardWithEveryPathAndOptionIntact) {

@@ -13,7 +13,10 @@
 #    outputs are byte-identical to the reference's;
 # 4. again, cancelling one task as it runs (scancel) and requeueing it
 #    (scontrol requeue): the same checks, the same bytes;
-# 5. prints the measured times (submission to merged index, each task's own
+# 5. one scan split across the tasks (`apo slurm SCAN --tasks 3`: a prepare
+#    job, the bake's three passes as job arrays, a merge), a task of the
+#    last pass cancelled and requeued: the one-machine run's bytes;
+# 6. prints the measured times (submission to merged index, each task's own
 #    seconds, the one-machine batch's) for docs/cluster.md.
 # Every daemon it started is stopped by process id, the package removed, the
 # folder deleted, whatever happens.
@@ -155,6 +158,18 @@ wait_for() {
   fail "job $job still queued after 300 s: $(squeue)"
 }
 
+# Slurm holds a requeued job back two minutes (its BeginTime); an update
+# made before the requeue has settled can be lost, so it is made again
+# until the job no longer waits for its BeginTime.
+start_now() {
+  local job=$1
+  for _ in $(seq 50); do
+    scontrol update JobId="$job" StartTime=now >/dev/null 2>&1 || true
+    squeue -h -j "$job" -t PENDING -o %r 2>/dev/null | grep -q BeginTime || return 0
+    sleep 0.2
+  done
+}
+
 # The merged outputs against the reference: every scan listed, the broken one
 # reported once, every scan's outputs byte-identical.
 check_outputs() {
@@ -240,7 +255,7 @@ scontrol hold "$merge"
 scancel "$victim"
 for _ in $(seq 100); do squeue -h -j "$victim" -t RUNNING | grep -q . || break; sleep 0.1; done
 scontrol requeue "$victim" || fail "scontrol requeue $victim"
-scontrol update JobId="$victim" StartTime=now >/dev/null  # Slurm holds a requeued job back two minutes
+start_now "$victim"
 scontrol release "$merge"
 state=$(wait_for "$merge")
 [ "$state" = COMPLETED ] || [ "$state" = FAILED ] || fail "the merge job after the requeue ended $state"
@@ -249,4 +264,69 @@ restarts=$(scontrol show job "$victim" | sed -n 's/.*Restarts=\([0-9]*\).*/\1/p'
 check_outputs "$work/out_requeued"
 with_requeue=$(python3 -c "import time; print(f'{time.time() - $start:.1f}')")
 say "task $victim cancelled as it ran and requeued ($restarts restart): the same bytes; submission to merged index $with_requeue s"
+# ---- 5. One scan's bake across the tasks ----------------------------------------
+# `apo slurm SCAN --tasks 3`: a prepare job, the bake's three passes as job
+# arrays, a merge; a task of the last pass cancelled as it runs and
+# requeued. The merge must read every brick's work back from the journal
+# and write the one-machine run's bytes.
+$apo -q simulate-scan "$source_dir/datasets/cgal/meshes/blob.off" -o "$work/big.ply" --views 6 --rays 120 ||
+  fail "apo simulate-scan for the split scan"
+split=(--max-scan-points 5000 --all-points --detail-source points)
+start=$(date +%s.%N)
+$apo -q run "$work/big.ply" -o "$work/split_reference" "${quick[@]}" "${split[@]}" || fail "the one-machine run of big.ply"
+one_machine=$(python3 -c "import time; print(f'{time.time() - $start:.1f}')")
+start=$(date +%s.%N)
+line=$($apo -q slurm "$work/big.ply" -o "$work/split" --tasks 3 "${quick[@]}" "${split[@]}") || fail "apo slurm big.ply: $line"
+read -r samples merge < <(echo "$line" | sed -n 's/^prepare job [0-9]*, pass jobs [0-9]* [0-9]* \([0-9]*\) .*merge job \([0-9]*\);.*/\1 \2/p')
+[ -n "$samples" ] && [ -n "$merge" ] || fail "apo slurm on one scan printed no job ids: $line"
+scontrol hold "$merge"
+victim=
+for _ in $(seq 3000); do
+  victim=$(squeue -h -r -j "$samples" -t RUNNING -o %i | head -n 1)
+  [ -n "$victim" ] && break
+  sleep 0.02
+done
+[ -n "$victim" ] || fail "no task of the samples pass ($samples) was seen running"
+scancel "$victim"
+for _ in $(seq 100); do squeue -h -j "$victim" -t RUNNING | grep -q . || break; sleep 0.1; done
+scontrol requeue "$victim" || fail "scontrol requeue $victim"
+start_now "$victim"
+scontrol release "$merge"
+state=$(wait_for "$merge")
+[ "$state" = COMPLETED ] || fail "the split scan's merge job ended $state"
+restarts=$(scontrol show job "$victim" | sed -n 's/.*Restarts=\([0-9]*\).*/\1/p')
+[ "${restarts:-0}" -ge 1 ] || fail "task $victim was not restarted"
+on_cluster=$(python3 -c "import time; print(f'{time.time() - $start:.1f}')")
+python3 - "$work/split" "$work/split_reference" <<'PY' || fail "the split scan differs from the one-machine run"
+import hashlib, json, pathlib, sys
+out, reference = pathlib.Path(sys.argv[1]), pathlib.Path(sys.argv[2])
+manifest = json.loads((out / "manifest.json").read_text())
+bricks = manifest["results"]["bake"]["bricks"]
+problems = []
+if manifest["status"] != "succeeded":
+    problems.append(f"the merge's status is {manifest['status']}")
+if bricks["journal"]["entries_written"] != 0 or bricks["journal"]["entries_reused"] == 0:
+    problems.append(f"the merge did bricks' work itself: {bricks['journal']}")
+for name in ("m.ply", "scan.apo", "texture.png", "asset.glb"):
+    a, b = reference / name, out / name
+    if not b.exists() or hashlib.sha256(a.read_bytes()).digest() != hashlib.sha256(b.read_bytes()).digest():
+        problems.append(f"{name} differs from the one-machine run")
+logs = sorted(p.name for p in (out / "slurm").glob("*.log"))
+if len([n for n in logs if n.startswith("samples-")]) != 3:
+    problems.append(f"logs {logs}: not one per samples task")
+print(f"slurm_check: split scan: {bricks['bricks']} bricks, {bricks['journal']['entries_reused']} journal entries read back by the merge, 4 outputs byte-identical")
+sys.exit("\n".join(problems) if problems else 0)
+PY
+jobs=$(echo "$line" | sed -n 's/^prepare job \([0-9]*\), pass jobs \([0-9]*\) \([0-9]*\) \([0-9]*\) .*merge job \([0-9]*\);.*/\1 \2 \3 \4 \5/p')
+timeline=$(for job in $jobs; do scontrol -o show job "$job"; done | python3 -c "
+import re, sys
+from datetime import datetime
+jobs = [dict(re.findall(r'(\w+)=(\S+)', line)) for line in sys.stdin if line.strip()]
+t = lambda j, k: datetime.fromisoformat(j[k]).timestamp()
+t0 = min(t(j, 'SubmitTime') for j in jobs)
+for j in sorted(jobs, key=lambda j: (t(j, 'StartTime'), j['JobId'])):
+    name = j['JobName'] + ('.' + j['ArrayTaskId'] if 'ArrayTaskId' in j else '')
+    print(f\"{name} +{t(j, 'StartTime') - t0:.0f}..+{t(j, 'EndTime') - t0:.0f} s\")")
+say "one scan split across 3 tasks per pass, task $victim cancelled and requeued: the same bytes; one machine $one_machine s, submission to merged run $on_cluster s"
+say "Slurm's timeline of the split scan: $(echo "$timeline" | paste -sd ';' -)"
 say "passed"
