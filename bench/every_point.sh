@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The APO baked from every point of a scan (apo run --all-points: the point
-# store and the bake in bricks) against the one baked from ingest's voxel
+# store and the bake in bricks; each point's normal its nearest centroid's,
+# or fitted to its own nearest points) against the one baked from ingest's voxel
 # centroids, both --detail-source points and --max-scan-points 2000000, on
 # the 10M-point bunny scan of bench/big_scans.sh (noise and misregistration
 # on) and the same scan without them; judged by ../shared/tools/normal_eval.py
@@ -18,10 +19,12 @@ rays=$(python3 -c "import math; print(round(math.sqrt(10e6 / 8 / 0.2606)))")
 out=$(mktemp -d)
 printf '| scan | APO from | normals k | wall s | peak MiB (stage) | store: points, s, MB | bake s | against bunny00: mean / p95 deg |\n|---|---|---|---|---|---|---|---|\n'
 for scan in "$noisy" "$clean"; do
-  for from in centroids every; do
-    flag=""; [ "$from" = every ] && flag="--all-points"
+  for from in centroids every every-fitted; do
+    flag=()
+    [ "$from" = every ] && flag=(--all-points --point-normals centroids)
+    [ "$from" = every-fitted ] && flag=(--all-points --point-normals fitted)
     run=$out/$(basename "$scan" .ply)-$from
-    /usr/bin/time -f '%e' -o "$run.time" build/apo -q run "$scan" -o "$run" --max-scan-points 2000000 --detail-source points $flag
+    /usr/bin/time -f '%e' -o "$run.time" build/apo -q run "$scan" -o "$run" --max-scan-points 2000000 --detail-source points "${flag[@]}"
     /usr/bin/python3 ../shared/tools/normal_eval.py "$truth" "$run/m.ply" --apo "$run/scan.apo" \
       --apo-lookup "build/apo -q lookup {apo} {points} -o {out} --filter --coarse $run/m.ply" >"$run.eval"
     python3 - "$run" "$scan" "$from" <<'PY'

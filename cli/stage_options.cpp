@@ -236,6 +236,12 @@ void addStageOptionGroups(CLI::App& app, StageArguments& arguments) {
   app.add_flag("--all-points", arguments.allPoints,
                "A scan above --max-scan-points: bake the APO from every point, not from the voxel centroids (a "
                "point store under OUTDIR/.scratch, removed once baked; the bake in bricks, --brick-depth or 2)");
+  app.add_option("--point-normals", arguments.pointNormals,
+                 "With --all-points, each point's normal: centroids (its nearest voxel centroid's, fitted over as "
+                 "many centroids as the scan's normals; measured closer to the surface on noisy scans) or fitted (a "
+                 "plane over its own nearest points at full density)")
+      ->check(CLI::IsMember({"centroids", "fitted"}))
+      ->capture_default_str();
   addGroup(app, "Ingest", [&] { addIngestOptions(app, arguments.ingest); });
   addGroup(app, "Reconstruct", [&] { addReconstructOptions(app, arguments.reconstruct); });
   addGroup(app, "Simplify", [&] { addSimplifyOptions(app, arguments.simplify); });
@@ -264,6 +270,7 @@ RunOptions runOptionsFrom(StageArguments arguments) {
                                                              : DetailSource::Auto;
   options.keepGeoreference = arguments.keepGeoreference;
   options.allPoints = arguments.allPoints;
+  options.pointNormals = arguments.pointNormals == "fitted" ? PointNormals::Fitted : PointNormals::Centroids;
   options.ingest = arguments.ingest.options;
   options.reconstruct = arguments.reconstruct;
   options.simplify = arguments.simplify.options;

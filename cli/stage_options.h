@@ -66,6 +66,7 @@ void addExportOptions(CLI::App& app, ExportOptions& options);
 struct StageArguments {
   bool keepGeoreference = false;
   bool allPoints = false;
+  std::string pointNormals = "centroids";
   std::string detailSource = "auto";
   IngestArguments ingest;
   ReconstructOptions reconstruct;

@@ -235,7 +235,8 @@ class PointStore {
 // `folder`, in the local frame of `oriented`, with normals: PCA over k
 // neighbours found within the point's cell and a band around it, turned to
 // agree with the nearest point of `oriented` (the scan's voxel centroids as
-// ingest oriented them). A complete store of the same file and k already in
+// ingest oriented them); with k = 0, no plane: each point takes the nearest
+// oriented point's normal (docs/ingest.md, "Every point"). A complete store of the same file and k already in
 // the folder is reused. Two passes over the file, then one over the cells.
 // BadInput when the file cannot be read so; Internal when a write fails (a
 // full disk), the folder then left without store.json.

@@ -244,6 +244,10 @@ Status normalsByCell(const Grid& grid, const std::vector<std::uint64_t>& cellBeg
   APO_RETURN_IF_ERROR(normals.opened());
   auto guide = makeFlannClosestPoint(oriented);
   if (!guide) return guide.error();
+  const auto nearestOriented = [&](const Vec3f& p) {
+    const std::optional<SurfacePoint> closest = (**guide).closest(p);
+    return closest ? closest->normal : Vec3f(Vec3f::UnitZ());
+  };
   const float band = kBandOfCell * grid.cellWidth();
   const int side = grid.side();
   std::vector<Vec3f> own, reference, read;
@@ -252,6 +256,13 @@ Status normalsByCell(const Grid& grid, const std::vector<std::uint64_t>& cellBeg
     if (count == 0) continue;
     own.resize(count);
     APO_RETURN_IF_ERROR(positions.read(first * sizeof(Vec3f), own.data(), count * sizeof(Vec3f)));
+    if (k == 0) {  // no plane: each point takes its nearest oriented point's normal
+      std::vector<Vec3f> taken(count);
+      tbb::parallel_for(std::size_t{0}, count, [&](std::size_t i) { taken[i] = nearestOriented(own[i]); });
+      APO_RETURN_IF_ERROR(normals.write(first * sizeof(Vec3f), taken.data(), count * sizeof(Vec3f)));
+      reportProgress(progress, 0.5 + 0.5 * static_cast<double>(cellBegin[cell + 1]) / static_cast<double>(cellBegin.back()));
+      continue;
+    }
     // The cell's points first, then its neighbours' within the band.
     Aabb reach = grid.boxOf(cell);
     reach.min -= Vec3f::Constant(band);
@@ -276,8 +287,7 @@ Status normalsByCell(const Grid& grid, const std::vector<std::uint64_t>& cellBeg
     std::vector<Vec3f> guides(count);
     std::vector<char> cut(count, 0);
     tbb::parallel_for(std::size_t{0}, count, [&](std::size_t i) {
-      const std::optional<SurfacePoint> closest = (**guide).closest(own[i]);
-      guides[i] = closest ? closest->normal : Vec3f(Vec3f::UnitZ());
+      guides[i] = nearestOriented(own[i]);
       // Whether a nearer point could lie beyond the band: the k-th
       // neighbour farther than the band's edge (faces of the grid aside).
       const float kth = std::sqrt(nearest->squaredDistances[i * nearest->k + nearest->k - 1]);

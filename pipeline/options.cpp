@@ -86,6 +86,7 @@ nlohmann::ordered_json optionsJson(const RunOptions& options) {
   return {{"detail-source", detailSourceName(options.detailSource)},
           {"keep-georeference", options.keepGeoreference},
           {"all-points", options.allPoints},
+          {"point-normals", options.pointNormals == PointNormals::Fitted ? "fitted" : "centroids"},
           {"ingest", ingestJson(options.ingest)},
           {"reconstruct", reconstructJson(options.reconstruct)},
           {"simplify", simplifyJson(options.simplify)},

@@ -59,6 +59,9 @@ inline RenderOptions reportRenderOptions() {
   return render;
 }
 
+// Where --all-points takes each point's normal (docs/run.md, "Every point").
+enum class PointNormals { Centroids, Fitted };
+
 // Every option of every stage of a run, with their defaults.
 struct RunOptions {
   DetailSource detailSource = DetailSource::Auto;
@@ -68,6 +71,9 @@ struct RunOptions {
   // store in the output folder, the bake in bricks), not the centroids
   // (docs/run.md, "Every point").
   bool allPoints = false;
+  // Every point's normal in the store: its nearest centroid's (Centroids),
+  // or a plane fitted to its k nearest points at full density (Fitted).
+  PointNormals pointNormals = PointNormals::Centroids;
   IngestOptions ingest;
   ReconstructOptions reconstruct;
   SimplifyOptions simplify;

@@ -200,7 +200,8 @@ class Run {
       record = {{"written", false}, {"reason", "the scan is read whole (at most --max-scan-points points)"}};
       return okStatus();
     }
-    auto store = writePointStore(settings_.input, data_.scan, report.normalNeighbours,
+    const int k = settings_.options->pointNormals == PointNormals::Fitted ? report.normalNeighbours : 0;
+    auto store = writePointStore(settings_.input, data_.scan, k,
                                  storeFolderOf(settings_),
                                  [this, readShare](double f) { progress_.setFraction(readShare + (1.0 - readShare) * f); });
     if (!store) return aboutInput(settings_.input, store.error());

@@ -122,7 +122,9 @@ TEST(RunCommand, AllPointsBakesEveryPointOfALargeScanThenRemovesItsStore) {
   const nlohmann::json manifest = readJson(dir / "out" / "manifest.json");
   const nlohmann::json& ingest = manifest["results"]["ingest"];
   EXPECT_EQ(manifest["options"]["all-points"], true);
+  EXPECT_EQ(manifest["options"]["point-normals"], "centroids");
   ASSERT_EQ(ingest["point_store"]["written"], true);
+  EXPECT_EQ(ingest["point_store"]["neighbours"], 0);  // each point its nearest centroid's normal
   const auto inFile = ingest["large_scan"]["points_in_file"].get<std::uint64_t>();
   EXPECT_GT(inFile, 5000u);
   EXPECT_EQ(ingest["point_store"]["points"].get<std::uint64_t>(), inFile);

@@ -16,6 +16,7 @@
 #include <cmath>
 #include <csignal>
 #include <filesystem>
+#include <limits>
 #include <random>
 
 namespace apo {
@@ -95,6 +96,39 @@ TEST_F(PointStoreTest, HoldsEveryPointOnceWithNormalsAlongTheSurface) {
   EXPECT_EQ(flipped, 0u);
   EXPECT_LT(angle / static_cast<double>(all->size()), 2.0);
   EXPECT_EQ(store->report().unfittedNormals, 0u);
+}
+
+TEST_F(PointStoreTest, WithoutAPlaneEachPointTakesItsNearestOrientedPointsNormal) {
+  auto store = writePointStore(dir_ / "sheet.ply", oriented_, 0, dir_ / "nearest");
+  ASSERT_TRUE(store.ok()) << store.error().message;
+  EXPECT_EQ(store->report().neighbours, 0);
+  Aabb everything;
+  everything.min = Vec3f::Constant(-1e30f);
+  everything.max = Vec3f::Constant(1e30f);
+  const PointSet all = store->pointsIn(everything).value();
+  ASSERT_EQ(all.size(), scan_.points.size());
+  // Brute force over a stride of the points: the nearest oriented point's
+  // normal (ties in distance aside: a point of the subsample is its own).
+  std::size_t differing = 0, checked = 0;
+  for (std::size_t i = 0; i < all.size(); i += 97, ++checked) {
+    float best = std::numeric_limits<float>::max();
+    Vec3f normal = Vec3f::Zero();
+    for (std::size_t j = 0; j < oriented_.points.size(); ++j) {
+      const float d = (oriented_.points.positions[j] - all.positions[i]).squaredNorm();
+      if (d < best) {
+        best = d;
+        normal = oriented_.points.normals[j];
+      }
+    }
+    differing += (all.normals[i] - normal).norm() > 1e-6f ? 1 : 0;
+  }
+  EXPECT_GT(checked, 1000u);
+  EXPECT_EQ(differing, 0u);
+  // Another k is another store: not reused.
+  auto fitted = writePointStore(dir_ / "sheet.ply", oriented_, 16, dir_ / "nearest");
+  ASSERT_TRUE(fitted.ok());
+  EXPECT_FALSE(fitted->report().reused);
+  EXPECT_EQ(fitted->report().neighbours, 16);
 }
 
 TEST_F(PointStoreTest, ABoxGivesExactlyItsPointsInTheStoresOrder) {
