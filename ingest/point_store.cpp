@@ -449,8 +449,11 @@ Result<PointStore> writePointStore(const fs::path& scanPath, const Scan& oriente
   auto store = PointStore::open(folder);
   if (!store) return store.error();
   store->report_.seconds = watch.seconds();
-  spdlog::info("ingest: every point's normal in {:.1f} s ({} with no plane fitted, {} neighbourhoods cut by the band)",
-               store->report_.seconds, report.unfittedNormals, report.cutNeighbourhoods);
+  if (k == 0)
+    spdlog::info("ingest: every point's normal, its nearest centroid's, in {:.1f} s", store->report_.seconds);
+  else
+    spdlog::info("ingest: every point's normal in {:.1f} s ({} with no plane fitted, {} neighbourhoods cut by the band)",
+                 store->report_.seconds, report.unfittedNormals, report.cutNeighbourhoods);
   return store;
 }
 

@@ -950,14 +950,19 @@ std::string ingestDecisionRows(const Json* ingest) {
                     fmt::format("{:g}", numberAt(large, {"voxel_size"}).value_or(0)) + " file units kept: " +
                     (stored ? "M is made from them, the points' APO from every point (below)"
                             : "M and the APO are made from them"));
-  if (stored)
+  if (stored) {
+    const bool fitted = numberAt(store, {"neighbours"}).value_or(0) > 0;
+    const std::string normals =
+        fitted ? " points with normals fitted over " + count(numberAt(store, {"neighbours"})) + " neighbours"
+               : " points, each with its nearest centroid's normal (--point-normals centroids)";
+    const std::string fits = fitted ? count(numberAt(store, {"cut_neighbourhoods"})) + " neighbourhoods cut by a cell's band, " +
+                                          count(numberAt(store, {"unfitted_normals"})) + " normals from the nearest centroid (no plane); "
+                                    : "";
     html += row("every point in a store (--all-points)",
-                count(numberAt(store, {"points"})) + " points with normals fitted over " +
-                    count(numberAt(store, {"neighbours"})) + " neighbours in " + count(numberAt(store, {"occupied_cells"})) +
-                    " cells" + (at(store, {"reused"}) != nullptr && *at(store, {"reused"}) == true ? ", reused from an earlier run" : "") +
-                    "; " + count(numberAt(store, {"cut_neighbourhoods"})) + " neighbourhoods cut by a cell's band, " +
-                    count(numberAt(store, {"unfitted_normals"})) + " normals from the nearest centroid (no plane); " +
-                    bytesText(numberAt(store, {"bytes"})) + " on disk, removed once baked");
+                count(numberAt(store, {"points"})) + normals + " in " + count(numberAt(store, {"occupied_cells"})) + " cells" +
+                    (at(store, {"reused"}) != nullptr && *at(store, {"reused"}) == true ? ", reused from an earlier run" : "") +
+                    "; " + fits + bytesText(numberAt(store, {"bytes"})) + " on disk, removed once baked");
+  }
   html += sensorRows(ingest);
   if (const Json* faces = at(ingest, {"face_orientation"}); faces != nullptr && faces->is_object() &&
                                                              numberAt(faces, {"flipped_triangles"}).value_or(0) > 0)

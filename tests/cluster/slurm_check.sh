@@ -170,6 +170,28 @@ start_now() {
   done
 }
 
+# Cancels a task of array job $1 as it runs and requeues it, job $2 (which
+# waits on the array, afterany) held meanwhile, so that it cannot start
+# between the cancel and the requeue; $3: seconds to let the task work
+# first. Sets `victim`.
+requeue_a_running_task() {
+  local array=$1 held=$2 settle=$3
+  scontrol hold "$held"
+  victim=
+  for _ in $(seq 3000); do
+    victim=$(squeue -h -r -j "$array" -t RUNNING -o %i | head -n 1)
+    [ -n "$victim" ] && break
+    sleep 0.02
+  done
+  [ -n "$victim" ] || fail "no task of job $array was seen running"
+  sleep "$settle"
+  scancel "$victim"
+  for _ in $(seq 100); do squeue -h -j "$victim" -t RUNNING | grep -q . || break; sleep 0.1; done
+  scontrol requeue "$victim" || fail "scontrol requeue $victim"
+  start_now "$victim"
+  scontrol release "$held"
+}
+
 # The merged outputs against the reference: every scan listed, the broken one
 # reported once, every scan's outputs byte-identical.
 check_outputs() {
@@ -241,22 +263,7 @@ say "Slurm's timeline: $(echo "$timeline" | paste -sd ';' -)"
 # ---- 4. A task cancelled as it runs, then requeued -----------------------------
 start=$(date +%s.%N)
 submit "$work/out_requeued"
-victim=
-for _ in $(seq 600); do
-  victim=$(squeue -h -r -j "$array" -t RUNNING -o %i | head -n 1)
-  [ -n "$victim" ] && break
-  sleep 0.05
-done
-[ -n "$victim" ] || fail "no task of job $array was seen running"
-sleep 0.5
-# The merge waits on the whole array (afterany); held meanwhile, so that a
-# merge started between the cancel and the requeue cannot list the task early.
-scontrol hold "$merge"
-scancel "$victim"
-for _ in $(seq 100); do squeue -h -j "$victim" -t RUNNING | grep -q . || break; sleep 0.1; done
-scontrol requeue "$victim" || fail "scontrol requeue $victim"
-start_now "$victim"
-scontrol release "$merge"
+requeue_a_running_task "$array" "$merge" 0.5
 state=$(wait_for "$merge")
 [ "$state" = COMPLETED ] || [ "$state" = FAILED ] || fail "the merge job after the requeue ended $state"
 restarts=$(scontrol show job "$victim" | sed -n 's/.*Restarts=\([0-9]*\).*/\1/p')
@@ -279,19 +286,7 @@ start=$(date +%s.%N)
 line=$($apo -q slurm "$work/big.ply" -o "$work/split" --tasks 3 "${quick[@]}" "${split[@]}") || fail "apo slurm big.ply: $line"
 read -r samples merge < <(echo "$line" | sed -n 's/^prepare job [0-9]*, pass jobs [0-9]* [0-9]* \([0-9]*\) .*merge job \([0-9]*\);.*/\1 \2/p')
 [ -n "$samples" ] && [ -n "$merge" ] || fail "apo slurm on one scan printed no job ids: $line"
-scontrol hold "$merge"
-victim=
-for _ in $(seq 3000); do
-  victim=$(squeue -h -r -j "$samples" -t RUNNING -o %i | head -n 1)
-  [ -n "$victim" ] && break
-  sleep 0.02
-done
-[ -n "$victim" ] || fail "no task of the samples pass ($samples) was seen running"
-scancel "$victim"
-for _ in $(seq 100); do squeue -h -j "$victim" -t RUNNING | grep -q . || break; sleep 0.1; done
-scontrol requeue "$victim" || fail "scontrol requeue $victim"
-start_now "$victim"
-scontrol release "$merge"
+requeue_a_running_task "$samples" "$merge" 0
 state=$(wait_for "$merge")
 [ "$state" = COMPLETED ] || fail "the split scan's merge job ended $state"
 restarts=$(scontrol show job "$victim" | sed -n 's/.*Restarts=\([0-9]*\).*/\1/p')

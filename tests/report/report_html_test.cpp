@@ -197,6 +197,15 @@ TEST(ReportHtml, ShowsTheDecisionsIngestTookOnItsOwn) {
   EXPECT_THAT(stored, HasSubstr("100,024,484 points with normals fitted over 48 neighbours in 15,566 cells"));
   EXPECT_THAT(stored, HasSubstr("the points' APO read 100,024,484 points, every point of the scan"));
   EXPECT_THAT(stored, HasSubstr("42 bricks of depth 2, 43 brick builds, at most 9,123,456 points held at once"));
+  EXPECT_THAT(stored, Not(HasSubstr("resumed")));
+  // The default: each point its nearest centroid's normal; a resumed bake.
+  m["results"]["ingest"]["point_store"]["neighbours"] = 0;
+  m["results"]["bake"]["bricks"]["journal"] = {{"entries_reused", 97}, {"entries_written", 51}};
+  const std::string centroids = qaReportHtml(m);
+  EXPECT_THAT(centroids, HasSubstr("100,024,484 points, each with its nearest centroid's normal (--point-normals centroids) "
+                                   "in 15,566 cells"));
+  EXPECT_THAT(centroids, Not(HasSubstr("neighbourhoods cut")));
+  EXPECT_THAT(centroids, HasSubstr("resumed: 97 cells' and bricks' work read back"));
   // Nothing decided, nothing said.
   const std::string plain = qaReportHtml(succeededManifest("bunny.ply", 1));
   EXPECT_THAT(plain, Not(HasSubstr("mesh read as")));
