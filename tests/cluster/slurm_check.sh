@@ -170,10 +170,11 @@ start_now() {
   done
 }
 
-# Cancels a task of array job $1 as it runs and requeues it, job $2 (which
-# waits on the array, afterany) held meanwhile, so that it cannot start
-# between the cancel and the requeue; $3: seconds to let the task work
-# first. Sets `victim`.
+# Cancels a task of array job $1 as it runs and requeues it; job $2, which
+# waits on the array (afterany), is held until the requeued task has run
+# again: Slurm counts the cancelled task as ended, and a job released
+# before the task's second run ends could start without its work. $3:
+# seconds to let the task work first. Sets `victim`.
 requeue_a_running_task() {
   local array=$1 held=$2 settle=$3
   scontrol hold "$held"
@@ -189,6 +190,7 @@ requeue_a_running_task() {
   for _ in $(seq 100); do squeue -h -j "$victim" -t RUNNING | grep -q . || break; sleep 0.1; done
   scontrol requeue "$victim" || fail "scontrol requeue $victim"
   start_now "$victim"
+  for _ in $(seq 1500); do squeue -h -j "$victim" 2>/dev/null | grep -q . || break; sleep 0.2; done
   scontrol release "$held"
 }
 
