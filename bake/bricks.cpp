@@ -237,13 +237,12 @@ class BrickBake {
       const float margin = farthest + 2.0f * frame_.reach;
       report_.marginWorld = std::max(report_.marginWorld, static_cast<double>(margin));
       const std::string name = brick_journal::samplesName(bricks_[b].id);
-      auto entry = fromJournal(name, brick_journal::decodeSamples);
+      const auto forTheseLeaves = [&](std::string_view bytes) {
+        auto decoded = brick_journal::decodeSamples(bytes);
+        return decoded && decoded->leaves == leaves[b] ? decoded : std::nullopt;
+      };
+      auto entry = fromJournal(name, forTheseLeaves);
       if (!entry) return entry.error();
-      if (*entry && (*entry)->leaves != leaves[b]) {
-        spdlog::warn("bake: the journal's samples of brick {} are for other leaves; sampled again", b);
-        entry->reset();
-        --report_.journalEntriesReused;
-      }
       if (!*entry) {
         auto sampled = sampleBrick(built, bricks_[b].cell, leaves[b], margin, coarse, settings, moments);
         if (!sampled) return sampled.error();
@@ -405,8 +404,8 @@ class BrickBake {
                     name, passName(pass), passName(share_->pass));
   }
 
-  // An entry of the journal, decoded; nullopt when absent or undecodable
-  // (written by another version of this code: done again).
+  // An entry of the journal, decoded; nullopt when absent or refused by `decode`
+  // (damaged, by another version of this code, or for another tree: done again).
   template <class Decode>
   auto fromJournal(const std::string& name, Decode decode) -> Result<decltype(decode(std::string_view{}))> {
     using Entry = decltype(decode(std::string_view{}));
@@ -416,7 +415,7 @@ class BrickBake {
     if (!*bytes) return Entry{};
     Entry entry = decode(**bytes);
     if (!entry) {
-      spdlog::warn("bake: the journal's entry {} does not decode; done again", name);
+      spdlog::warn("bake: the journal's entry {} is damaged or for another tree; done again", name);
       return Entry{};
     }
     ++report_.journalEntriesReused;

@@ -157,20 +157,6 @@ Result<DetailSearch> detailSearch(const Scan& M, DetailSurface& surface) {
   return search;
 }
 
-// M's points held in memory, served a box at a time to the bake in bricks.
-BrickedPoints pointsInMemory(const Scan& M) {
-  return brickedPoints(M.points.size(), [&M](const Aabb& box) -> Result<PointSet> {
-    PointSet inside;
-    for (std::size_t i = 0; i < M.points.size(); ++i) {
-      const Vec3f& p = M.points.positions[i];
-      if ((p.array() < box.min.array()).any() || (p.array() > box.max.array()).any()) continue;
-      inside.positions.push_back(p);
-      inside.normals.push_back(M.points.normals[i]);
-    }
-    return inside;
-  });
-}
-
 }  // namespace
 
 BrickedPoints brickedPoints(std::uint64_t count, std::function<Result<PointSet>(const Aabb& box)> pointsIn) {
@@ -208,6 +194,20 @@ BrickJournal brickJournalIn(const std::filesystem::path& folder) {
     return writeFileAtomically(folder / name, bytes);
   };
   return journal;
+}
+
+// M's points held in memory, served a box at a time to the bake in bricks.
+BrickedPoints pointsInMemory(const Scan& M) {
+  return brickedPoints(M.points.size(), [&M](const Aabb& box) -> Result<PointSet> {
+    PointSet inside;
+    for (std::size_t i = 0; i < M.points.size(); ++i) {
+      const Vec3f& p = M.points.positions[i];
+      if ((p.array() < box.min.array()).any() || (p.array() > box.max.array()).any()) continue;
+      inside.positions.push_back(p);
+      inside.normals.push_back(M.points.normals[i]);
+    }
+    return inside;
+  });
 }
 
 Result<Bake> bakeApoInBricks(const BrickedPoints& detail, const Scan& coarse, const Checked<BakeOptions>& options,

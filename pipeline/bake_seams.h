@@ -29,6 +29,9 @@ BrickedPoints brickedPoints(std::uint64_t count, std::function<Result<PointSet>(
 // (written to a temporary name and renamed, so a killed bake leaves whole
 // entries only): what a bake run again resumes from.
 BrickJournal brickJournalIn(const std::filesystem::path& folder);
+// M's points held in memory (they need normals), served a box at a time
+// by brickedPoints's seams: the bake in bricks of a scan that fits.
+BrickedPoints pointsInMemory(const Scan& M);
 // bakeInBricks over those seams and an Embree BVH of m (options.brickDepth > 0).
 Result<Bake> bakeApoInBricks(const BrickedPoints& detail, const Scan& coarse, const Checked<BakeOptions>& options,
                              const ProgressCallback& onProgress = {});

@@ -176,16 +176,7 @@ struct JournalInMemory {
 };
 
 BrickedPoints bricked(const Scan& scan, const BrickJournal& journal) {
-  BrickedPoints source = brickedPoints(scan.points.size(), [&scan](const Aabb& box) -> Result<PointSet> {
-    PointSet inside;
-    for (std::size_t i = 0; i < scan.points.size(); ++i) {
-      const Vec3f& p = scan.points.positions[i];
-      if ((p.array() < box.min.array()).any() || (p.array() > box.max.array()).any()) continue;
-      inside.positions.push_back(p);
-      inside.normals.push_back(scan.points.normals[i]);
-    }
-    return inside;
-  });
+  BrickedPoints source = pointsInMemory(scan);
   source.journal = journal;
   return source;
 }
