@@ -44,13 +44,13 @@ for pass in areas records samples; do
   printf '| %s | %d | %s (%s) | %s |\n' "$pass" "$tasks" "$(printf '%s / ' "${seconds[@]}" | sed 's| / $||')" "$sum" "$peak"
   total=$(python3 -c "print($total + $sum)")
 done
-read -r s mib < <(part whole)
-printf '| merge: the run, the bake read back | 1 | %s | %s |\n' "$s" "$mib"
+read -r s mib < <(part merge)
+printf '| merge: the bake read back, render, export, report | 1 | %s | %s |\n' "$s" "$mib"
 total=$(python3 -c "print(round($total + $s, 1))")
 python3 - "$out" "$whole_s" "$total" <<'PY'
 import hashlib, json, pathlib, sys
 out, whole_s, total = pathlib.Path(sys.argv[1]), float(sys.argv[2]), float(sys.argv[3])
-same = [n for n in ("m.ply", "scan.apo", "texture.png", "asset.glb")
+same = [n for n in ("M.ply", "m.ply", "scan.apo", "texture.png", "asset.glb")
         if hashlib.sha256((out / "whole" / n).read_bytes()).digest() == hashlib.sha256((out / "split" / n).read_bytes()).digest()]
 journal = json.loads((out / "split" / "manifest.json").read_text())["results"]["bake"]["bricks"]["journal"]
 print(f"\nsplit parts in all {total} s against {whole_s} s whole ({total / whole_s:.2f}x); "

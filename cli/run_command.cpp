@@ -56,7 +56,7 @@ void addRunCommand(CLI::App& app, int& exitCode) {
   sub->add_option("--split", command->split,
                   "A part of a run split across tasks, as `apo slurm` on one scan runs them (docs/cluster.md): "
                   "prepare (up to m and the point store), PASS:T/N (task T's share of the bake's pass: areas, "
-                  "records, samples), whole (default; the merge)");
+                  "records, samples), merge (the rest, from the prepared part and the tasks' work), whole (default)");
   addStageOptionGroups(*sub, command->arguments);
   sub->callback([sub, command, &app, &exitCode] {
     const bool quiet = app.get_option("--quiet")->count() > 0;

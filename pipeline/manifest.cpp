@@ -46,7 +46,11 @@ Status write(const fs::path& outDir, const Json& manifest) {
 }
 
 bool upToDate(const Json& manifest, const std::string& inputSha256, const Json& options) {
-  return manifest.value("status", "") == "succeeded" && manifest.contains("input") &&
+  return manifest.value("status", "") == "succeeded" && sameRun(manifest, inputSha256, options);
+}
+
+bool sameRun(const Json& manifest, const std::string& inputSha256, const Json& options) {
+  return manifest.contains("input") &&
          manifest["input"].value("sha256", "") == inputSha256 && manifest.contains("tool") &&
          manifest["tool"].value("version", "") == APO_VERSION && manifest.contains("options") &&
          manifest["options"] == options;

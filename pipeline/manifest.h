@@ -27,6 +27,9 @@ Status write(const std::filesystem::path& outDir, const Json& manifest);
 // Whether a finished run can stand for a new one: it succeeded, with the same
 // input digest, options and tool version.
 bool upToDate(const Json& manifest, const std::string& inputSha256, const Json& options);
+// Whether a manifest is of a run of this input digest, these options and
+// this tool version, whatever its status.
+bool sameRun(const Json& manifest, const std::string& inputSha256, const Json& options);
 
 // A manifest whose run ended without recording its end (a crash, a kill)
 // marked failed at the first stage that did not finish, with `reason`.

@@ -98,16 +98,17 @@ nlohmann::ordered_json optionsJson(const RunOptions& options);
 
 // Which part of a run (`apo run --split`): the whole, or for `apo slurm`
 // on one scan (docs/cluster.md, "One scan across tasks") the part up to m
-// and the point store, kept in OUTDIR for the tasks (Prepare), or one
-// task's share of a pass of the bake in bricks from them (Share). The
-// merge is a whole run: it finds the store and the bake's journal complete.
+// and the point store, kept in OUTDIR for the tasks and the merge
+// (Prepare), one task's share of a pass of the bake in bricks from them
+// (Share), or the rest of the run from them (Merge), which finds the
+// bake's journal complete.
 struct RunPart {
-  enum class Kind { Whole, Prepare, Share };
+  enum class Kind { Whole, Prepare, Share, Merge };
   Kind kind = Kind::Whole;
   BrickShare share;  // Kind::Share
 };
-// "whole", "prepare", or PASS:T/N (PASS areas, records or samples; task T
-// of N); a Usage error naming the text otherwise.
+// "whole", "prepare", PASS:T/N (PASS areas, records or samples; task T of
+// N) or "merge"; a Usage error naming the text otherwise.
 Result<RunPart> runPartNamed(std::string_view text);
 
 struct RunSettings {

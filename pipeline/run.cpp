@@ -14,6 +14,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include <array>
 #include <cstdio>
 #include <optional>
 #include <string>
@@ -43,11 +44,17 @@ constexpr const char* kScratchFolder = ".scratch";
 // The bricks' depth for a store's every point (64 at most: a brick of a
 // 100-million-point scan holds a few million).
 constexpr int kStoreBrickDepth = 2;
-// Where the part of a split run before the bake leaves m for the tasks, in
-// the scratch folder: the local frame's floats, as the run holds them.
-constexpr const char* kSplitCoarseFile = "m.ply";
+// Where the part of a split run before the bake leaves, in the scratch
+// folder, what the tasks and the merge take from it: the ingested scan, M
+// and m, in the local frame's floats as the run holds them.
+constexpr const char* kPreparedScanFile = "scan.ply";
+constexpr const char* kPreparedDenseFile = "M.ply";
+constexpr const char* kPreparedCoarseFile = "m.ply";
+// The stages the merge of a split run takes from its prepared part.
+constexpr std::array<StageIndex, 3> kPreparedStages = {kIngest, kReconstruct, kSimplify};
 
-fs::path storeFolderOf(const RunSettings& settings) { return settings.outDir / kScratchFolder / "points"; }
+fs::path scratchFolderOf(const RunSettings& settings) { return settings.outDir / kScratchFolder; }
+fs::path storeFolderOf(const RunSettings& settings) { return scratchFolderOf(settings) / "points"; }
 
 // The bake options a store's points are baked with: --brick-depth, or kStoreBrickDepth.
 BakeOptions storeBakeOptions(const RunOptions& options) {
@@ -86,21 +93,19 @@ Result<BrickedPoints> storePoints(const PointStore& store, const Scan& coarse, c
 
 class Run {
  public:
-  Run(const RunSettings& settings, Progress& progress)
-      : settings_(settings), progress_(progress), manifest_(manifest::initial(settings)) {}
+  // `manifest`: manifest::initial's, or manifestToMerge's for a merge.
+  Run(const RunSettings& settings, Progress& progress, Json manifest)
+      : settings_(settings), progress_(progress), manifest_(std::move(manifest)) {}
 
   // Runs the stages until one fails; the manifest records each.
   Status execute() {
     APO_RETURN_IF_ERROR(save());
-    APO_RETURN_IF_ERROR(stage(kIngest, [&] { return ingest(); }));
-    if (data_.scan.isMesh()) {
-      skip(kReconstruct);
-      data_.dense = data_.scan;
+    if (settings_.part.kind == RunPart::Kind::Merge) {
+      APO_RETURN_IF_ERROR(takePrepared());
     } else {
-      APO_RETURN_IF_ERROR(stage(kReconstruct, [&] { return reconstruct(); }));
+      APO_RETURN_IF_ERROR(makeCoarseMesh());
+      if (settings_.part.kind == RunPart::Kind::Prepare) return leaveForTasks();
     }
-    APO_RETURN_IF_ERROR(stage(kSimplify, [&] { return simplify(); }));
-    if (settings_.part.kind == RunPart::Kind::Prepare) return leaveForTasks();
     APO_RETURN_IF_ERROR(stage(kBake, [&] { return bake(); }));
     APO_RETURN_IF_ERROR(stage(kRender, [&] { return render(); }));
     if (settings_.options->exporting.enabled)
@@ -108,6 +113,7 @@ class Run {
     else
       skip(kExport);
     APO_RETURN_IF_ERROR(stage(kReport, [&] { return report(); }));
+    removeScratch();
     manifest_["status"] = "succeeded";
     return save();
   }
@@ -123,19 +129,70 @@ class Run {
   const Json& manifest() const { return manifest_; }
 
  private:
-  // The part of a split run before the bake: m (as held, for the tasks'
-  // journal key to be the merge's) beside the store; the manifest says
-  // `prepared`.
-  Status leaveForTasks() {
-    if (data_.store) {
-      APO_RETURN_IF_ERROR(writePly(settings_.outDir / kScratchFolder / kSplitCoarseFile, data_.coarse));
-      spdlog::info("run: m and the store of {} points left in {} for the bake's tasks", data_.store->size(),
-                   (settings_.outDir / kScratchFolder).string());
+  // Ingest, reconstruct (M is the scan when it is a mesh) and simplify.
+  Status makeCoarseMesh() {
+    APO_RETURN_IF_ERROR(stage(kIngest, [&] { return ingest(); }));
+    if (data_.scan.isMesh()) {
+      skip(kReconstruct);
+      data_.dense = data_.scan;
     } else {
-      spdlog::info("run: no point store (the scan is read whole): the merge bakes it, the tasks have nothing to share");
+      APO_RETURN_IF_ERROR(stage(kReconstruct, [&] { return reconstruct(); }));
     }
+    return stage(kSimplify, [&] { return simplify(); });
+  }
+
+  // The part of a split run before the bake: the scan, M and m as held (m
+  // for the tasks' journal key to be the merge's) beside the store; the
+  // manifest says `prepared`.
+  Status leaveForTasks() {
+    const fs::path scratch = scratchFolderOf(settings_);
+    APO_RETURN_IF_ERROR(writePly(scratch / kPreparedScanFile, data_.scan));
+    if (!data_.scan.isMesh()) APO_RETURN_IF_ERROR(writePly(scratch / kPreparedDenseFile, data_.dense));
+    APO_RETURN_IF_ERROR(writePly(scratch / kPreparedCoarseFile, data_.coarse));
+    if (data_.store)
+      spdlog::info("run: the scan, M, m and the store of {} points left in {} for the bake's tasks and the merge",
+                   data_.store->size(), scratch.string());
+    else
+      spdlog::info("run: no point store (the scan is read whole): the merge bakes it, the tasks have nothing to share");
     manifest_["status"] = "prepared";
     return save();
+  }
+
+  // The merge of a split run (its manifest from manifestToMerge): the scan,
+  // M, m and the store its prepared part left.
+  Status takePrepared() {
+    const fs::path scratch = scratchFolderOf(settings_);
+    const auto readPrepared = [&scratch](const char* name, Scan& into) {
+      auto read = readScan(scratch / name, ScanFormat::Ply);
+      if (!read) return Status(read.error());
+      into = std::move(*read);
+      return okStatus();
+    };
+    APO_RETURN_IF_ERROR(readPrepared(kPreparedScanFile, data_.scan));
+    if (data_.scan.isMesh())
+      data_.dense = data_.scan;
+    else
+      APO_RETURN_IF_ERROR(readPrepared(kPreparedDenseFile, data_.dense));
+    APO_RETURN_IF_ERROR(readPrepared(kPreparedCoarseFile, data_.coarse));
+    if (manifest_["results"]["ingest"]["point_store"].value("written", false)) {
+      auto store = PointStore::open(storeFolderOf(settings_));
+      if (!store) return store.error();
+      data_.store = std::move(*store);
+    }
+    for (StageIndex index : kPreparedStages) {
+      progress_.startStage(kRunStages[index]);
+      progress_.finishStage("done by the prepared part");
+    }
+    return okStatus();
+  }
+
+  // The point store and a split run's prepared files, once the run is done:
+  // a run killed before reuses them.
+  void removeScratch() {
+    data_.store.reset();
+    std::error_code error;
+    fs::remove_all(scratchFolderOf(settings_), error);
+    if (error) spdlog::warn("could not remove the scratch folder {}: {}", scratchFolderOf(settings_).string(), error.message());
   }
 
   template <class Body>
@@ -351,15 +408,6 @@ class Run {
     addFile("texture", "texture.png");
     manifest_["results"]["bake"] = Json::parse(bakeReportJson(baked->report));
     manifest_["results"]["bake"]["detail_source"] = std::move(choice);
-    if (data_.store) {
-      // Only the bake reads every point: the store goes once it is done.
-      std::error_code error;
-      fs::remove_all(data_.store->folder(), error);
-      if (error) spdlog::warn("could not remove the point store {}: {}", data_.store->folder().string(), error.message());
-      fs::remove(settings_.outDir / kScratchFolder / kSplitCoarseFile, error);  // a split run's
-      fs::remove(settings_.outDir / kScratchFolder, error);
-      data_.store.reset();
-    }
     return okStatus();
   }
 
@@ -475,7 +523,7 @@ Status bakeShare(const RunSettings& settings, Progress& progress) {
   }
   auto store = PointStore::open(storeFolder);
   if (!store) return store.error();
-  auto coarse = readScan(settings.outDir / kScratchFolder / kSplitCoarseFile, ScanFormat::Ply);
+  auto coarse = readScan(scratchFolderOf(settings) / kPreparedCoarseFile, ScanFormat::Ply);
   if (!coarse) return coarse.error();
   auto options = check(storeBakeOptions(*settings.options));
   if (!options) return options.error();
@@ -492,13 +540,38 @@ Status bakeShare(const RunSettings& settings, Progress& progress) {
   return okStatus();
 }
 
+// The manifest a merge of a split run starts from: its prepared part's, or
+// a merge's that did not end (killed and requeued), with the stages the
+// prepared part ran named in `split`. Either must be of this input, these
+// options and this apo.
+Result<Json> manifestToMerge(const RunSettings& settings) {
+  std::optional<Json> prepared = manifest::read(settings.outDir);
+  const std::string status = prepared ? prepared->value("status", "") : "";
+  if (status != "prepared" && !(prepared && prepared->contains("split") && status != "succeeded"))
+    return badInput("{}: no prepared run to merge{} (run `apo run --split prepare` first)", settings.outDir.string(),
+                    status == "succeeded" ? ": its merge has succeeded" : "");
+  APO_RETURN_IF_ERROR(checkReadableFile(settings.input));
+  auto digest = sha256OfFile(settings.input);
+  if (!digest) return digest.error();
+  if (!manifest::sameRun(*prepared, *digest, optionsJson(*settings.options)))
+    return badInput("{}: prepared from another input, other options or another apo version than this merge's "
+                    "(run `apo run --split prepare` again)",
+                    settings.outDir.string());
+  Json manifest = std::move(*prepared);
+  manifest["status"] = "running";
+  manifest["error"] = nullptr;
+  manifest["split"] = {{"prepared_stages", Json::array()}};
+  for (StageIndex index : kPreparedStages) manifest["split"]["prepared_stages"].push_back(kRunStages[index]);
+  return manifest;
+}
+
 }  // namespace
 
 Result<RunPart> runPartNamed(std::string_view text) {
   RunPart part;
   if (text == "whole") return part;
-  if (text == "prepare") {
-    part.kind = RunPart::Kind::Prepare;
+  if (text == "prepare" || text == "merge") {
+    part.kind = text == "prepare" ? RunPart::Kind::Prepare : RunPart::Kind::Merge;
     return part;
   }
   const std::size_t colon = text.find(':'), slash = text.find('/');
@@ -508,7 +581,7 @@ Result<RunPart> runPartNamed(std::string_view text) {
   if (colon == std::string_view::npos || slash == std::string_view::npos || !pass ||
       std::sscanf(std::string(text.substr(colon + 1)).c_str(), "%u/%u%c", &task, &tasks, &extra) != 2 || tasks == 0 ||
       task >= tasks)
-    return usageError("--split {}: expected whole, prepare, or PASS:T/N (PASS areas, records or samples; task T below N)",
+    return usageError("--split {}: expected whole, prepare, PASS:T/N or merge (PASS areas, records or samples; task T below N)",
                       text);
   part.kind = RunPart::Kind::Share;
   part.share = {*pass, task, tasks};
@@ -517,7 +590,13 @@ Result<RunPart> runPartNamed(std::string_view text) {
 
 RunOutcome runPipeline(const RunSettings& settings, Progress& progress) {
   if (settings.part.kind == RunPart::Kind::Share) return {bakeShare(settings, progress), {}};
-  Run run(settings, progress);
+  Json manifest = manifest::initial(settings);
+  if (settings.part.kind == RunPart::Kind::Merge) {
+    auto toMerge = manifestToMerge(settings);
+    if (!toMerge) return {toMerge.error(), {}};
+    manifest = std::move(*toMerge);
+  }
+  Run run(settings, progress, std::move(manifest));
   Status status = run.execute();
   if (!status.ok()) run.recordFailure(status.error());
   return {std::move(status), run.manifest()};

@@ -187,7 +187,7 @@ ScanSplitScripts scanSplitScripts(const SlurmSettings& s) {
                         fmt::format("#SBATCH --array=0-{}\n#SBATCH --requeue\nset -eu\n", s.tasks - 1) +
                         runCommand(s, fmt::format("{}:\"$SLURM_ARRAY_TASK_ID\"/{}", kPassNames[p], s.tasks));
   }
-  scripts.merge = "#!/bin/bash\n" + sbatchOptions(s, "apo-merge") + "#SBATCH --requeue\nset -eu\n" + runCommand(s, "whole");
+  scripts.merge = "#!/bin/bash\n" + sbatchOptions(s, "apo-merge") + "#SBATCH --requeue\nset -eu\n" + runCommand(s, "merge");
   return scripts;
 }
 

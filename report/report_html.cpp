@@ -861,6 +861,19 @@ std::string metricsSection(const Json& manifest) {
   return section("metrics", "Metrics", html + "</div>\n");
 }
 
+// A split run's merge (`apo slurm SCAN --tasks N`): the stages its prepared
+// part ran once, whose rows are that part's.
+std::string splitParagraph(const Json& manifest) {
+  const Json* prepared = child(child(&manifest, "split"), "prepared_stages");
+  if (!isFilledArray(prepared)) return "";
+  std::string names;
+  for (const Json& name : *prepared)
+    if (name.is_string()) names += (names.empty() ? "" : ", ") + htmlEscape(name.get<std::string>());
+  return "<p>Split across tasks: " + names +
+         " ran once, in the prepared part (their rows are its); the bake's passes ran in the array tasks, "
+         "and the bake row is the merge's.</p>\n";
+}
+
 std::string stagesSection(const Json& manifest) {
   const Json* stages = child(&manifest, "stages");
   if (!isFilledArray(stages))
@@ -877,7 +890,7 @@ std::string stagesSection(const Json& manifest) {
   }
   html += fmt::format("<tr><td><b>total</b></td><td></td><td class=\"n\"><b>{}</b></td><td></td></tr>\n",
                       seconds(totalSeconds(manifest)));
-  return section("stages", "Stages: time and memory", html + kTableEnd);
+  return section("stages", "Stages: time and memory", html + kTableEnd + splitParagraph(manifest));
 }
 
 // The scan positions a multi-scan file gave, and whether the declared

@@ -137,8 +137,9 @@ TEST(RunCommand, AllPointsBakesEveryPointOfALargeScanThenRemovesItsStore) {
 }
 
 // One scan's run split as `apo slurm SCAN --tasks 2` runs it: the part up to
-// m, each pass's two shares, then the merge, which reads every brick's work
-// back from the journal and writes the whole run's bytes.
+// m, each pass's two shares, then the merge, which takes ingest, M and m
+// from the first part, reads every brick's work back from the journal and
+// writes the whole run's bytes.
 TEST(RunCommand, ARunSplitAcrossTasksGivesTheWholeRunsBytes) {
   const fs::path dir = test::freshTempDir();
   const fs::path mesh = writeMeshScan(dir / "sphere.ply");
@@ -165,15 +166,38 @@ TEST(RunCommand, ARunSplitAcrossTasksGivesTheWholeRunsBytes) {
       const auto share = run(out, fmt::format("{}:{}/2", pass, task));
       ASSERT_EQ(share.exitCode, 0) << share.output;
     }
-  const auto merge = run(out, "whole");
+  const nlohmann::json prepared = readJson(out / "manifest.json");
+  const auto otherOptions = apo(fmt::format("run '{}' -o '{}' {} --split merge --budget 1MiB", points.string(),
+                                            out.string(), options));
+  EXPECT_EQ(otherOptions.exitCode, 2) << otherOptions.output;
+  EXPECT_THAT(otherOptions.output, HasSubstr("prepared from another input, other options"));
+  EXPECT_EQ(readJson(out / "manifest.json"), prepared) << "a refused merge touched the prepared part's manifest";
+  // A merge that fails after its bake (the GLB's name taken by a folder)
+  // can be run again: the prepared part's files stay until one succeeds.
+  fs::create_directories(out / "asset.glb" / "taken");
+  const auto failed = run(out, "merge");
+  EXPECT_NE(failed.exitCode, 0) << failed.output;
+  EXPECT_EQ(readJson(out / "manifest.json")["status"], "failed");
+  fs::remove_all(out / "asset.glb");
+  const auto merge = run(out, "merge");
   ASSERT_EQ(merge.exitCode, 0) << merge.output;
-  const nlohmann::json bricks = readJson(out / "manifest.json")["results"]["bake"]["bricks"];
+  const nlohmann::json merged = readJson(out / "manifest.json");
+  const nlohmann::json bricks = merged["results"]["bake"]["bricks"];
   EXPECT_EQ(bricks["journal"]["entries_written"], 0) << "the merge did a brick's work again";
   EXPECT_GT(bricks["journal"]["entries_reused"].get<int>(), 64);
   EXPECT_EQ(bricks["points_loaded"], 0);
-  for (const char* file : {"m.ply", "scan.apo", "texture.png", "asset.glb"})
+  // Ingest, reconstruction and simplification ran once: the merge's records
+  // of them are the prepared part's, to the time taken.
+  EXPECT_EQ(merged["split"]["prepared_stages"], nlohmann::json({"ingest", "reconstruct", "simplify"}));
+  for (int stage = 0; stage < 3; ++stage) EXPECT_EQ(merged["stages"][stage], prepared["stages"][stage]) << stage;
+  EXPECT_EQ(merged["results"]["ingest"], prepared["results"]["ingest"]);
+  EXPECT_EQ(merged["status"], "succeeded");
+  for (const char* file : {"m.ply", "M.ply", "scan.apo", "texture.png", "asset.glb"})
     EXPECT_EQ(fileBytes(out / file), fileBytes(dir / "whole" / file)) << file;
   EXPECT_FALSE(fs::exists(out / ".scratch"));
+  const auto again = run(out, "merge");
+  EXPECT_EQ(again.exitCode, 2) << again.output;
+  EXPECT_THAT(again.output, HasSubstr("its merge has succeeded"));
   EXPECT_EQ(run(dir / "bad", "samples:2/2").exitCode, 1);
   EXPECT_EQ(apo(fmt::format("run '{}' -o '{}' {} --split prepare", points.string(), (dir / "nope").string(), kQuick)).exitCode, 1);
 }
@@ -711,11 +735,11 @@ TEST(SlurmScripts, OneScansTasksRunTheirShareOfEachPassWithEveryPathAndOptionInt
     EXPECT_EQ(scripts.passLogs[p], settings.outDir / "slurm" / fmt::format("{}-%a.log", passes[p]));
     EXPECT_EQ(ran(scripts.passes[p], "pass.sbatch"), expected(fmt::format("{}:3/5", passes[p])));
   }
-  EXPECT_EQ(ran(scripts.merge, "merge.sbatch"), expected("whole"));
+  EXPECT_EQ(ran(scripts.merge, "merge.sbatch"), expected("merge"));
   // --all-points given is not given twice.
   settings.workerArguments = {"--all-points"};
   EXPECT_EQ(ran(scanSplitScripts(settings).merge, "merge.sbatch"),
-            fmt::format("[run]\n[{}]\n[-o]\n[{}]\n[--split]\n[whole]\n[--threads]\n[2]\n[--all-points]\n",
+            fmt::format("[run]\n[{}]\n[-o]\n[{}]\n[--split]\n[merge]\n[--threads]\n[2]\n[--all-points]\n",
                         settings.scanDir.string(), settings.outDir.string()));
 }
 

@@ -304,14 +304,16 @@ if manifest["status"] != "succeeded":
     problems.append(f"the merge's status is {manifest['status']}")
 if bricks["journal"]["entries_written"] != 0 or bricks["journal"]["entries_reused"] == 0:
     problems.append(f"the merge did bricks' work itself: {bricks['journal']}")
-for name in ("m.ply", "scan.apo", "texture.png", "asset.glb"):
+if manifest.get("split", {}).get("prepared_stages") != ["ingest", "reconstruct", "simplify"]:
+    problems.append(f"the merge did not take ingest, M and m from the prepare job: {manifest.get('split')}")
+for name in ("m.ply", "M.ply", "scan.apo", "texture.png", "asset.glb"):
     a, b = reference / name, out / name
     if not b.exists() or hashlib.sha256(a.read_bytes()).digest() != hashlib.sha256(b.read_bytes()).digest():
         problems.append(f"{name} differs from the one-machine run")
 logs = sorted(p.name for p in (out / "slurm").glob("*.log"))
 if len([n for n in logs if n.startswith("samples-")]) != 3:
     problems.append(f"logs {logs}: not one per samples task")
-print(f"slurm_check: split scan: {bricks['bricks']} bricks, {bricks['journal']['entries_reused']} journal entries read back by the merge, 4 outputs byte-identical")
+print(f"slurm_check: split scan: {bricks['bricks']} bricks, {bricks['journal']['entries_reused']} journal entries read back by the merge, ingest, M and m from the prepare job, 5 outputs byte-identical")
 sys.exit("\n".join(problems) if problems else 0)
 PY
 jobs=$(echo "$line" | sed -n 's/^prepare job \([0-9]*\), pass jobs \([0-9]*\) \([0-9]*\) \([0-9]*\) .*merge job \([0-9]*\);.*/\1 \2 \3 \4 \5/p')

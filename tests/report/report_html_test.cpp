@@ -206,6 +206,10 @@ TEST(ReportHtml, ShowsTheDecisionsIngestTookOnItsOwn) {
                                    "in 15,566 cells"));
   EXPECT_THAT(centroids, Not(HasSubstr("neighbourhoods cut")));
   EXPECT_THAT(centroids, HasSubstr("resumed: 97 cells' and bricks' work read back"));
+  EXPECT_THAT(centroids, Not(HasSubstr("Split across tasks")));
+  // A split run's merge: the stages its prepared part ran.
+  m["split"] = {{"prepared_stages", {"ingest", "reconstruct", "simplify"}}};
+  EXPECT_THAT(qaReportHtml(m), HasSubstr("Split across tasks: ingest, reconstruct, simplify ran once, in the prepared part"));
   // Nothing decided, nothing said.
   const std::string plain = qaReportHtml(succeededManifest("bunny.ply", 1));
   EXPECT_THAT(plain, Not(HasSubstr("mesh read as")));
