@@ -1,6 +1,7 @@
-// The FLANN adapter: one exact k-d tree set-up for every nearest-point job of
-// the project (M's closest point for the bake, disc radii for the bake and
-// the renders, nearest input points for reconstruct).
+// The FLANN adapter: exact k-d tree searches for every nearest-point job of
+// the project. FLANN here: M's closest point on a mesh for the bake, the
+// nearest input points for reconstruct; nanoflann (nanoflann_search.cpp):
+// the points' nearest point and disc radii, the k-nearest graph.
 //
 // Thread safety (read in FLANN 1.9.2, flann/flann.hpp,
 // flann/algorithms/nn_index.h and kdtree_single_index.h): Index::knnSearch is
@@ -12,6 +13,7 @@
 // answer single queries from several threads at once, as long as each call
 // has its own output buffers (here: arrays on its stack).
 #include "adapters/flann/flann_search.h"
+#include "adapters/flann/nanoflann_search.h"
 
 #include "core/triangle_geometry.h"
 
@@ -72,29 +74,6 @@ bool searchOne(const KdTree& tree, const Vec3f& query, std::size_t k, std::size_
     return false;
   }
 }
-
-// ---- Points: the nearest point ---------------------------------------------
-
-class FlannPointsClosest final : public ClosestPointFinder {
- public:
-  // Copies what it needs: `points` may go away afterwards.
-  explicit FlannPointsClosest(const PointSet& points)
-      : positions_(points.positions), normals_(points.normals), tree_(buildKdTree(positions_)) {}
-
-  std::optional<SurfacePoint> closest(const Vec3f& query) const override {
-    std::size_t nearest = 0;
-    float squaredDistance = 0.0f;
-    if (!searchOne(*tree_, query, 1, &nearest, &squaredDistance)) return std::nullopt;
-    return SurfacePoint{positions_[nearest], normals_[nearest]};
-  }
-
-  const KdTree& tree() const { return *tree_; }
-  const std::vector<Vec3f>& positions() const { return positions_; }
-
- private:
-  std::vector<Vec3f> positions_, normals_;
-  std::unique_ptr<KdTree> tree_;
-};
 
 // ---- Mesh: the closest point on the triangles around the nearest vertices --
 
@@ -201,73 +180,25 @@ class FlannMeshClosest final : public ClosestPointFinder {
   std::unique_ptr<KdTree> tree_;
 };
 
-Status checkDetail(const Scan& detail) {
-  const std::size_t n = detail.points.size();
-  const char* kind = detail.isMesh() ? "mesh" : "point cloud";
+Status checkDetail(const PointSet& points, const std::vector<Triangle>& triangles) {
+  const std::size_t n = points.size();
+  const bool mesh = !triangles.empty();
+  const char* kind = mesh ? "mesh" : "point cloud";
   if (n == 0) return badInput("closest point: the detail {} is empty", kind);
-  if (detail.points.normals.size() != n)
+  if (points.normals.size() != n)
     return badInput("closest point: the detail {} needs a unit normal per {}: {} {}, {} normals", kind,
-                    detail.isMesh() ? "vertex" : "point", n, detail.isMesh() ? "vertices" : "points",
-                    detail.points.normals.size());
-  for (std::size_t i = 0; i < detail.triangles.size(); ++i)
-    for (std::uint32_t v : detail.triangles[i])
+                    mesh ? "vertex" : "point", n, mesh ? "vertices" : "points", points.normals.size());
+  for (std::size_t i = 0; i < triangles.size(); ++i)
+    for (std::uint32_t v : triangles[i])
       if (v >= n) return badInput("closest point: triangle {} of the detail mesh uses vertex {} of {}", i, v, n);
   return okStatus();
 }
 
-// ---- Disc radii -------------------------------------------------------------
-
-// Local spacing = mean distance to this many nearest other points.
-constexpr std::size_t kSpacingNeighbours = 6;
-
-// Radius = kDiscRadiusFactor x spacing. Discs centred on samples of spacing s
-// cover the plane when their radius reaches the sampling's covering radius:
-// s / sqrt(3) = 0.58 s for a hexagonal lattice (whose mean 6-NN distance is
-// s), s / sqrt(2) = 0.71 s for a square lattice (mean 6-NN distance 1.14 s,
-// so factor 0.62), and for a scan-like grid of s along lines and 4 s across,
-// half the cell diagonal 2.06 s against a mean 6-NN distance of 2 s (factor
-// 1.03). 1.0 covers the first two with a 1.6x margin for uneven sampling and
-// nearly the last. Larger overlap is cheap: a ray hits a neighbour's disc a
-// hair before the surface and takes that neighbour's (nearly equal) normal,
-// while a hole costs a closest-point fallback.
-constexpr float kDiscRadiusFactor = 1.0f;
-
-// Batches bound the result matrices (8 + 4 bytes per neighbour and point).
-constexpr std::size_t kSearchBatch = 1 << 16;
-
-// Radii of points[first, first + count) into radii. Each query's k + 1
-// nearest include the point itself at distance 0, first: it is skipped.
-void batchRadii(const KdTree& tree, const std::vector<Vec3f>& points, std::size_t first, std::size_t count,
-                std::size_t neighbours, std::vector<float>& radii) {
-  const std::size_t columns = neighbours + 1;
-  std::vector<std::size_t> indices(count * columns);
-  std::vector<float> squaredDistances(count * columns);
-  flann::Matrix<std::size_t> indexRows(indices.data(), count, columns);
-  flann::Matrix<float> distanceRows(squaredDistances.data(), count, columns);
-  // cores = 0: every core when FLANN is compiled with OpenMP in this file;
-  // each query writes its own row, so the result is the same either way.
-  tree.knnSearch(pointRows(&points[first], count), indexRows, distanceRows, columns, exactSearch(0));
-  for (std::size_t i = 0; i < count; ++i) {
-    double sum = 0.0;
-    for (std::size_t j = 1; j < columns; ++j) sum += std::sqrt(static_cast<double>(squaredDistances[i * columns + j]));
-    radii[first + i] = static_cast<float>(kDiscRadiusFactor * sum / static_cast<double>(neighbours));
-  }
-}
-
-// Each point's disc radius (at least two points): the tree is built over
-// `points`.
-std::vector<float> radiiOver(const KdTree& tree, const std::vector<Vec3f>& points) {
-  const std::size_t n = points.size();
-  const std::size_t neighbours = std::min(kSpacingNeighbours, n - 1);
-  std::vector<float> radii(n);
-  for (std::size_t first = 0; first < n; first += kSearchBatch)
-    batchRadii(tree, points, first, std::min(kSearchBatch, n - first), neighbours, radii);
-  return radii;
-}
+Status checkDetail(const Scan& detail) { return checkDetail(detail.points, detail.triangles); }
 
 std::unique_ptr<ClosestPointFinder> newClosestPointFinder(const Scan& detail) {
   if (detail.isMesh()) return std::make_unique<FlannMeshClosest>(detail);
-  return std::make_unique<FlannPointsClosest>(detail.points);
+  return flann_adapter::nanoflannNearestPoint(detail.points);
 }
 
 // ---- Built on the first query ---------------------------------------------
@@ -332,20 +263,12 @@ Result<std::unique_ptr<ClosestPointFinder>> makeFlannClosestPointOnDemand(const 
 // caster refuses. Coincident points can also make a spacing 0.
 Result<std::vector<float>> discRadii(const PointSet& points) {
   if (points.size() < 2) return std::vector<float>(points.size(), 0.0f);
-  return catchLibraryErrors("FLANN disc radii", [&] { return radiiOver(*buildKdTree(points.positions), points.positions); });
+  return catchLibraryErrors("nanoflann disc radii", [&] { return flann_adapter::nanoflannDiscRadii(points.positions); });
 }
 
 Result<PointsSearch> makeFlannPointsSearch(const PointSet& points) {
-  Scan detail;
-  detail.points = points;
-  APO_RETURN_IF_ERROR(checkDetail(detail));
-  return catchLibraryErrors("FLANN search over the points", [&] {
-    auto closest = std::make_unique<FlannPointsClosest>(points);
-    PointsSearch search;
-    search.radii = points.size() < 2 ? std::vector<float>(points.size(), 0.0f) : radiiOver(closest->tree(), closest->positions());
-    search.closest = std::move(closest);
-    return search;
-  });
+  APO_RETURN_IF_ERROR(checkDetail(points, {}));
+  return catchLibraryErrors("nanoflann search over the points", [&] { return flann_adapter::nanoflannPointsSearch(points); });
 }
 
 namespace flann_adapter {

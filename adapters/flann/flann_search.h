@@ -1,7 +1,8 @@
 // The FLANN adapter (target apo_flann): exact k-d tree searches (one tree,
 // searched to the end; randomised trees were wrong 58% of the time on our
 // data, ../shared/STACK.md) behind core's closest-point seam and as plain
-// functions over point vectors; nanoflann for the k-nearest graph. Every
+// functions over point vectors; nanoflann for points (their nearest point
+// and disc radii) and the k-nearest graph. Every
 // library exception comes back as an Internal error; the closest-point finders, called from worker threads,
 // answer nothing instead of throwing.
 #pragma once
