@@ -98,7 +98,7 @@ class CasterBuiltWhenAsked final : public RayCaster {
   mutable std::optional<Result<std::unique_ptr<RayCaster>>> built_;
 };
 
-// A point scan's k-d tree (FLANN: the discs' radii, and the closest point
+// A point scan's k-d tree (nanoflann: the discs' radii, and the closest point
 // where both rays of a sample miss every disc) built beside the bake from the
 // start: the bake projects M's points onto m meanwhile, and needs the radii
 // only after that, to weigh the points (the tree's build is serial: 0.3 s
@@ -106,7 +106,7 @@ class CasterBuiltWhenAsked final : public RayCaster {
 class PointsSearchAside final : public ClosestPointFinder {
  public:
   explicit PointsSearchAside(const PointSet& points) {
-    aside_.start(fmt::format("the disc radii of {} points (FLANN k-d tree, nearest neighbours)", points.size()),
+    aside_.start(fmt::format("the disc radii of {} points (nanoflann k-d tree, nearest neighbours)", points.size()),
                  [&points] { return makeFlannPointsSearch(points); });
   }
   Status ready() const override { return aside_.ready(); }
