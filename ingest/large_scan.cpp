@@ -219,8 +219,9 @@ Result<Scan> readRecords(const fs::path& path, const std::string& head, const re
     return badInput("{}: byte {}: the file ends inside point record {} of the {} its header declares", path.string(),
                     at + bytes->size(), first + bytes->size() / layout.recordBytes + 1, layout.count);
   try {
-    return format == ScanFormat::Ply ? readers::readPlyRecords(head, *bytes, layout)
-                                     : readers::readLasRecords(head, *bytes, layout);
+    if (format == ScanFormat::Ply) return readers::readPlyRecords(head, *bytes, layout);
+    if (format == ScanFormat::Pcd) return readers::readPcdRecords(head, *bytes, layout);
+    return readers::readLasRecords(head, *bytes, layout);
   } catch (const parse::ParseFailure& failure) {
     return badInput("{}: records {} to {}: {}", path.string(), first + 1, first + count, failure.what());
   }
@@ -288,12 +289,14 @@ int startLevel(const Scan& firstRun, std::uint64_t maxPoints) {
 }  // namespace
 
 Result<std::optional<PointRuns>> openPointRuns(const fs::path& path, ScanFormat format) {
-  if (format != ScanFormat::Ply && format != ScanFormat::Las) return std::optional<PointRuns>();
+  if (format != ScanFormat::Ply && format != ScanFormat::Las && format != ScanFormat::Pcd) return std::optional<PointRuns>();
   auto head = readFileRange(path, 0, kHeadBytes);
   if (!head) return head.error();
   if (format == ScanFormat::Las)
     if (const auto count = readers::lazPointCount(*head)) return std::optional<PointRuns>(lazRuns(path, *count));
-  const auto layout = format == ScanFormat::Ply ? readers::plyRecordLayout(*head) : readers::lasRecordLayout(*head);
+  const auto layout = format == ScanFormat::Ply   ? readers::plyRecordLayout(*head)
+                      : format == ScanFormat::Pcd ? readers::pcdRecordLayout(*head)
+                                                  : readers::lasRecordLayout(*head);
   if (!layout || layout->recordBytes == 0) return std::optional<PointRuns>();
   head->resize(static_cast<std::size_t>(layout->recordsAt));
   return std::optional<PointRuns>(recordRuns(path, std::move(*head), *layout, format));
@@ -303,11 +306,16 @@ Result<VoxelSubsample> voxelSubsample(const PointRuns& file, std::uint64_t maxPo
                                       const Progress& progress) {
   VoxelSubsample result;
   std::optional<VoxelGrid> grid;
+  // A PCD's VIEWPOINT, in the frame of the first run, whose reader read it.
+  std::optional<Viewpoint> viewpoint;
+  std::array<double, 3> viewpointFrame{};
   auto notes = file.read(std::max(runPoints, kStartPoints), [&](Scan& run) {
     if (!grid) {
       const PointSet& points = run.points;
       grid.emplace(startLevel(run, maxPoints), maxPoints,
                    Attributes{!points.normals.empty(), !points.colors.empty(), !points.intensities.empty()});
+      viewpoint = run.viewpoint;
+      viewpointFrame = run.origin;
     }
     grid->add(run);
     result.pointsRead += run.points.size();
@@ -318,6 +326,12 @@ Result<VoxelSubsample> voxelSubsample(const PointRuns& file, std::uint64_t maxPo
   if (!grid) return badInput("{}: no points", file.path.string());
   result.scan = grid->centroids();
   result.scan.readNotes = std::move(*notes);
+  if (viewpoint) {
+    for (int axis = 0; axis < 3; ++axis)
+      viewpoint->origin[axis] =
+          static_cast<float>(viewpointFrame[axis] + viewpoint->origin[axis] - result.scan.origin[axis]);
+    result.scan.viewpoint = viewpoint;
+  }
   result.voxelSize = grid->voxelSize();
   result.nonFinite = grid->nonFinite();
   result.coarsenings = grid->coarsenings();

@@ -40,9 +40,9 @@ struct PointRuns {
       read;
 };
 
-// The file as PointRuns when its format allows: binary PLY of vertices alone
-// and uncompressed LAS (runs of records read from disk, each as a file of its
-// own: readers.h, RecordLayout), LAZ (the compressed file held, its chunks
+// The file as PointRuns when its format allows: binary PLY of vertices alone,
+// uncompressed LAS and binary PCD of one row (runs of records read from disk,
+// each as a file of its own: readers.h, RecordLayout), LAZ (the compressed file held, its chunks
 // decompressed a run at a time); else nullopt.
 Result<std::optional<PointRuns>> openPointRuns(const std::filesystem::path& path, ScanFormat format);
 
@@ -51,6 +51,7 @@ using Progress = std::function<void(std::uint64_t read, std::uint64_t total)>;
 
 struct VoxelSubsample {
   Scan scan;                        // the voxels' centroids, in voxel order; the file's first run's read notes
+                                    // and viewpoint (PCD)
   double voxelSize = 0.0;           // in the file's units, a power of two
   std::uint64_t pointsRead = 0;     // records read
   std::uint64_t nonFinite = 0;      // of them, dropped for a non-finite coordinate (or one

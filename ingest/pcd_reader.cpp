@@ -636,7 +636,50 @@ Viewpoint inLocalFrame(const FileViewpoint& viewpoint, const std::array<double, 
   return local;
 }
 
+// The header with the grid and the count of one row of `count` points:
+// WIDTH and POINTS set to it, HEIGHT to 1, every other line as it was.
+std::string headerWithPointCount(std::string_view header, std::uint64_t count) {
+  std::string rewritten;
+  std::vector<std::string_view> tokens;
+  for (std::size_t at = 0; at < header.size();) {
+    const std::size_t newline = header.find('\n', at);
+    const std::size_t end = newline == std::string_view::npos ? header.size() : newline + 1;
+    const std::string_view line = header.substr(at, end - at);
+    parse::splitWhitespace(line, tokens);
+    const std::string_view keyword = tokens.empty() ? std::string_view() : tokens.front();
+    if (keyword == "WIDTH" || keyword == "POINTS")
+      rewritten += std::string(keyword) + " " + std::to_string(count) + "\n";
+    else if (keyword == "HEIGHT")
+      rewritten += "HEIGHT 1\n";
+    else
+      rewritten += line;
+    at = end;
+  }
+  return rewritten;
+}
+
 }  // namespace
+
+std::optional<RecordLayout> pcdRecordLayout(std::string_view head) {
+  Header header;
+  std::uint64_t recordsAt = 0;
+  try {
+    parse::TextCursor cursor(head);
+    header = HeaderReader(cursor).read();
+    recordsAt = cursor.offset();
+  } catch (const parse::ParseFailure&) {
+    return std::nullopt;  // the whole file's read says what is wrong
+  }
+  // An organised cloud's grid is triangulated whole (docs/ingest.md).
+  if (header.encoding != Encoding::Binary || header.height > 1) return std::nullopt;
+  return RecordLayout{header.points, recordsAt, header.recordSize};
+}
+
+Scan readPcdRecords(std::string_view head, std::string_view records, const RecordLayout& layout) {
+  std::string file = headerWithPointCount(head.substr(0, layout.recordsAt), records.size() / layout.recordBytes);
+  file += records;
+  return readPcd(file);
+}
 
 Scan readPcd(std::string_view bytes) {
   parse::TextCursor cursor(bytes);

@@ -29,7 +29,7 @@ std::string lasPointRecords(std::string_view bytes);
 Scan readE57(std::string_view bytes);
 
 // Files whose points are fixed-size records (binary PLY of vertices alone,
-// uncompressed LAS): a run of their records behind the file's header, its
+// uncompressed LAS, binary PCD of one row): a run of their records behind the file's header, its
 // count set to theirs, is a file of the same format, which its reader reads
 // with every check and attribute it has. A file too large to hold is read so,
 // a run at a time (docs/ingest.md, "Large scans").
@@ -41,14 +41,16 @@ struct RecordLayout {
 // The layout from the file's first bytes (they must hold its header), or
 // nullopt when its points cannot be read a run at a time (an ASCII or LAZ
 // body; a PLY with faces, list properties or elements before its vertices;
-// a header longer than `head`, or malformed: the whole file's read then says
-// what is wrong).
+// an organised or compressed PCD; a header longer than `head`, or malformed:
+// the whole file's read then says what is wrong).
 std::optional<RecordLayout> plyRecordLayout(std::string_view head);
 std::optional<RecordLayout> lasRecordLayout(std::string_view head);
+std::optional<RecordLayout> pcdRecordLayout(std::string_view head);
 // The scan of `records` (whole records of the file) given the file's header
 // `head` (bytes [0, layout.recordsAt)).
 Scan readPlyRecords(std::string_view head, std::string_view records, const RecordLayout& layout);
 Scan readLasRecords(std::string_view head, std::string_view records, const RecordLayout& layout);
+Scan readPcdRecords(std::string_view head, std::string_view records, const RecordLayout& layout);
 // LAZ files, whose records are decompressed a run of chunks at a time: the
 // header's count from the file's first bytes (nullopt when it is not LAZ or
 // the header does not read: the whole file's read then says why), and the

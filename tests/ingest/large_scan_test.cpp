@@ -75,14 +75,45 @@ large_scan::PointRuns open(const fs::path& path) {
   return **file;
 }
 
-// Binary PLY, LAS and LAZ (LASzip compressor 2, chunks of 50,000 points).
+template <class T>
+void appendRaw(std::string& out, T value) {
+  out.append(reinterpret_cast<const char*>(&value), sizeof(T));
+}
+
+// A sensor above the sheet, in the file's coordinates.
+constexpr std::array<double, 3> kSheetSensor = {500010.0, 4000005.0, 150.0};
+
+// The scan as PCL writes a binary PCD of one row (no PCD writer of ours):
+// world coordinates in doubles, normals, packed colour, intensity, and a
+// VIEWPOINT at kSheetSensor.
+bool writeBinaryPcd(const fs::path& path, const Scan& scan) {
+  const PointSet& points = scan.points;
+  std::string bytes = "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\n"
+                      "FIELDS x y z normal_x normal_y normal_z rgb intensity\nSIZE 8 8 8 4 4 4 4 4\n"
+                      "TYPE F F F F F F U F\nCOUNT 1 1 1 1 1 1 1 1\n";
+  bytes += "WIDTH " + std::to_string(points.size()) + "\nHEIGHT 1\nVIEWPOINT " + std::to_string(kSheetSensor[0]) + " " +
+           std::to_string(kSheetSensor[1]) + " " + std::to_string(kSheetSensor[2]) + " 1 0 0 0\nPOINTS " +
+           std::to_string(points.size()) + "\nDATA binary\n";
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    for (const double coordinate : world(scan, i)) appendRaw(bytes, coordinate);
+    for (int axis = 0; axis < 3; ++axis) appendRaw(bytes, points.normals[i][axis]);
+    const Rgb8& c = points.colors[i];
+    appendRaw(bytes, (std::uint32_t{c.r} << 16) | (std::uint32_t{c.g} << 8) | std::uint32_t{c.b});
+    appendRaw(bytes, points.intensities[i]);
+  }
+  return writeFileAtomically(path, bytes).ok();
+}
+
+// Binary PLY, LAS, LAZ (LASzip compressor 2, chunks of 50,000 points) and
+// binary PCD.
 class LargeScanTest : public ::testing::TestWithParam<std::string> {
  protected:
   // The sheet written in the parameter's format (world coordinates in the file).
   fs::path writeSheet(const Scan& scan) {
     const fs::path path = test::freshTempDir() / ("sheet." + GetParam());
-    const bool written = GetParam() == "ply" ? writePly(path, scan, /*worldCoordinates=*/true).ok()
-                                             : writeLas(path, scan, /*compressed=*/GetParam() == "laz").ok();
+    const bool written = GetParam() == "ply"   ? writePly(path, scan, /*worldCoordinates=*/true).ok()
+                         : GetParam() == "pcd" ? writeBinaryPcd(path, scan)
+                                               : writeLas(path, scan, /*compressed=*/GetParam() == "laz").ok();
     EXPECT_TRUE(written);
     return path;
   }
@@ -140,12 +171,21 @@ TEST_P(LargeScanTest, CentroidsAreEveryPointGroupedAtTheFinestVoxelWithinTheLimi
     for (int axis = 0; axis < 3; ++axis)
       ASSERT_NEAR(centroid[axis], sum.position[axis] / static_cast<double>(sum.count), 1e-3) << "voxel " << i;
   }
-  // Averaged attributes: the sheet's normals (PLY holds them, LAS does not) all point up.
-  if (GetParam() == "ply") {
+  // Averaged attributes: the sheet's normals (PLY and PCD hold them, LAS does not) all point up.
+  if (GetParam() == "ply" || GetParam() == "pcd") {
     ASSERT_EQ(subsample->scan.points.normals.size(), voxels.size());
     EXPECT_GT(subsample->scan.points.normals.front().normalized().z(), 0.999f);
   }
   ASSERT_EQ(subsample->scan.points.colors.size(), voxels.size());
+  // A PCD's VIEWPOINT comes with the centroids, in their frame.
+  if (GetParam() == "pcd") {
+    ASSERT_TRUE(subsample->scan.viewpoint.has_value());
+    for (int axis = 0; axis < 3; ++axis)
+      EXPECT_NEAR(subsample->scan.origin[axis] + subsample->scan.viewpoint->origin[axis], kSheetSensor[axis], 1e-3);
+    EXPECT_FALSE(subsample->scan.viewpoint->isFormatDefault);
+  } else {
+    EXPECT_FALSE(subsample->scan.viewpoint.has_value());
+  }
 }
 
 TEST_P(LargeScanTest, SameCentroidsWhateverTheRunLength) {
@@ -175,7 +215,7 @@ TEST_P(LargeScanTest, TruncatedFileIsRefusedWithItsByte) {
   EXPECT_TRUE(named) << subsample.error().message;
 }
 
-INSTANTIATE_TEST_SUITE_P(Formats, LargeScanTest, ::testing::Values("ply", "las", "laz"),
+INSTANTIATE_TEST_SUITE_P(Formats, LargeScanTest, ::testing::Values("ply", "las", "laz", "pcd"),
                          [](const auto& info) { return info.param; });
 
 TEST(LargeScan, AsciiPlyAndPlyMeshesAreReadWhole) {
@@ -188,6 +228,24 @@ TEST(LargeScan, AsciiPlyAndPlyMeshesAreReadWhole) {
     auto file = large_scan::openPointRuns(dir / name, ScanFormat::Ply);
     ASSERT_TRUE(file.ok());
     EXPECT_FALSE(file->has_value()) << name;
+  }
+}
+
+// An ASCII PCD, and an organised one (its grid is triangulated whole), are
+// read whole; the same points binary in one row are read in runs.
+TEST(LargeScan, AsciiAndOrganisedPcdsAreReadWhole) {
+  const fs::path dir = test::freshTempDir();
+  const std::string head = "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n";
+  std::string records;
+  for (int i = 0; i < 4; ++i)
+    for (const float v : {static_cast<float>(i), 1.0f, 2.0f}) appendRaw(records, v);
+  test::writeBytes(dir / "ascii.pcd", head + "WIDTH 2\nHEIGHT 1\nPOINTS 2\nDATA ascii\n0 1 2\n1 1 2\n");
+  test::writeBytes(dir / "organised.pcd", head + "WIDTH 2\nHEIGHT 2\nPOINTS 4\nDATA binary\n" + records);
+  test::writeBytes(dir / "row.pcd", head + "WIDTH 4\nHEIGHT 1\nPOINTS 4\nDATA binary\n" + records);
+  for (const char* name : {"ascii.pcd", "organised.pcd", "row.pcd"}) {
+    auto file = large_scan::openPointRuns(dir / name, ScanFormat::Pcd);
+    ASSERT_TRUE(file.ok()) << file.error().message;
+    EXPECT_EQ(file->has_value(), std::string(name) == "row.pcd") << name;
   }
 }
 
