@@ -20,6 +20,7 @@
 #include <cmath>
 #include <limits>
 #include <optional>
+#include <utility>
 
 namespace apo {
 namespace {
@@ -84,13 +85,13 @@ constexpr std::size_t kSpacingNeighbours = 6;
 // while a hole costs a closest-point fallback.
 constexpr float kDiscRadiusFactor = 1.0f;
 
-// A k-d tree over its own copy of the points' positions, and their normals
-// when they have them: their disc radii and nearest point.
+// A k-d tree over the points' positions, with their normals when they have
+// them (its own copies): their disc radii and nearest point.
 class PointsTree final : public ClosestPointFinder {
  public:
-  explicit PointsTree(const PointSet& points)
-      : positions_(points.positions),
-        normals_(points.normals),
+  PointsTree(std::vector<Vec3f> positions, std::vector<Vec3f> normals)
+      : positions_(std::move(positions)),
+        normals_(std::move(normals)),
         view_{positions_},
         tree_(3, view_, nanoflann::KDTreeSingleIndexAdaptorParams(kLeafSize)) {}
   PointsTree(const PointsTree&) = delete;
@@ -134,13 +135,11 @@ class PointsTree final : public ClosestPointFinder {
 }  // namespace
 
 std::vector<float> flann_adapter::nanoflannDiscRadii(const std::vector<Vec3f>& positions) {
-  PointSet points;
-  points.positions = positions;
-  return PointsTree(points).discRadii();
+  return PointsTree(positions, {}).discRadii();
 }
 
 PointsSearch flann_adapter::nanoflannPointsSearch(const PointSet& points) {
-  auto tree = std::make_unique<PointsTree>(points);
+  auto tree = std::make_unique<PointsTree>(points.positions, points.normals);
   PointsSearch search;
   search.radii = tree->discRadii();
   search.closest = std::move(tree);
@@ -148,7 +147,7 @@ PointsSearch flann_adapter::nanoflannPointsSearch(const PointSet& points) {
 }
 
 std::unique_ptr<ClosestPointFinder> flann_adapter::nanoflannNearestPoint(const PointSet& points) {
-  return std::make_unique<PointsTree>(points);
+  return std::make_unique<PointsTree>(points.positions, points.normals);
 }
 
 Result<flann_adapter::NeighbourGraph> flann_adapter::nearestNeighbourGraph(const std::vector<Vec3f>& points,
