@@ -208,10 +208,24 @@ class VoxelGrid {
   std::uint64_t nonFinite_ = 0, coarsenings_ = 0;
 };
 
+// A format whose points are fixed-size records: its layout from the file's
+// first bytes, and its reader of a run of records behind the header.
+struct RecordFormat {
+  std::optional<readers::RecordLayout> (*layout)(std::string_view head);
+  Scan (*read)(std::string_view head, std::string_view records, const readers::RecordLayout& layout);
+};
+
+std::optional<RecordFormat> recordFormatOf(ScanFormat format) {
+  if (format == ScanFormat::Ply) return RecordFormat{readers::plyRecordLayout, readers::readPlyRecords};
+  if (format == ScanFormat::Las) return RecordFormat{readers::lasRecordLayout, readers::readLasRecords};
+  if (format == ScanFormat::Pcd) return RecordFormat{readers::pcdRecordLayout, readers::readPcdRecords};
+  return std::nullopt;
+}
+
 // Records [first, first + count) of the file as a scan; BadInput when the
 // file ends early or the reader refuses them.
 Result<Scan> readRecords(const fs::path& path, const std::string& head, const readers::RecordLayout& layout,
-                         ScanFormat format, std::uint64_t first, std::uint64_t count) {
+                         const RecordFormat& format, std::uint64_t first, std::uint64_t count) {
   const std::uint64_t at = layout.recordsAt + first * layout.recordBytes;
   auto bytes = readFileRange(path, at, static_cast<std::size_t>(count * layout.recordBytes));
   if (!bytes) return bytes.error();
@@ -219,16 +233,15 @@ Result<Scan> readRecords(const fs::path& path, const std::string& head, const re
     return badInput("{}: byte {}: the file ends inside point record {} of the {} its header declares", path.string(),
                     at + bytes->size(), first + bytes->size() / layout.recordBytes + 1, layout.count);
   try {
-    if (format == ScanFormat::Ply) return readers::readPlyRecords(head, *bytes, layout);
-    if (format == ScanFormat::Pcd) return readers::readPcdRecords(head, *bytes, layout);
-    return readers::readLasRecords(head, *bytes, layout);
+    return format.read(head, *bytes, layout);
   } catch (const parse::ParseFailure& failure) {
     return badInput("{}: records {} to {}: {}", path.string(), first + 1, first + count, failure.what());
   }
 }
 
 // Runs of records read from disk, each as a file of its own.
-PointRuns recordRuns(const fs::path& path, std::string head, const readers::RecordLayout& layout, ScanFormat format) {
+PointRuns recordRuns(const fs::path& path, std::string head, const readers::RecordLayout& layout,
+                     const RecordFormat& format) {
   auto read = [path, head = std::move(head), layout, format](
                   std::uint64_t runPoints, const std::function<void(Scan&)>& take) -> Result<std::vector<std::string>> {
     std::vector<std::string> notes;
@@ -289,17 +302,16 @@ int startLevel(const Scan& firstRun, std::uint64_t maxPoints) {
 }  // namespace
 
 Result<std::optional<PointRuns>> openPointRuns(const fs::path& path, ScanFormat format) {
-  if (format != ScanFormat::Ply && format != ScanFormat::Las && format != ScanFormat::Pcd) return std::optional<PointRuns>();
+  const std::optional<RecordFormat> records = recordFormatOf(format);
+  if (!records) return std::optional<PointRuns>();
   auto head = readFileRange(path, 0, kHeadBytes);
   if (!head) return head.error();
   if (format == ScanFormat::Las)
     if (const auto count = readers::lazPointCount(*head)) return std::optional<PointRuns>(lazRuns(path, *count));
-  const auto layout = format == ScanFormat::Ply   ? readers::plyRecordLayout(*head)
-                      : format == ScanFormat::Pcd ? readers::pcdRecordLayout(*head)
-                                                  : readers::lasRecordLayout(*head);
+  const auto layout = records->layout(*head);
   if (!layout || layout->recordBytes == 0) return std::optional<PointRuns>();
   head->resize(static_cast<std::size_t>(layout->recordsAt));
-  return std::optional<PointRuns>(recordRuns(path, std::move(*head), *layout, format));
+  return std::optional<PointRuns>(recordRuns(path, std::move(*head), *layout, *records));
 }
 
 Result<VoxelSubsample> voxelSubsample(const PointRuns& file, std::uint64_t maxPoints, std::uint64_t runPoints,
