@@ -533,7 +533,7 @@ nlohmann::ordered_json stationsJson(const IngestReport& report) {
 Result<Scan> readLargeOrWhole(const fs::path& path, ScanFormat format, const IngestOptions& options,
                               IngestReport& report, const ProgressCallback& readFraction) {
   if (options.maxScanPoints == 0) return readScan(path, format);
-  auto file = large_scan::openPointRuns(path, format);
+  auto file = large_scan::openPointRuns(path, format, options.maxScanPoints);
   if (!file) return file.error();
   if (!*file || (*file)->count <= options.maxScanPoints) return readScan(path, format);
   const std::uint64_t total = (*file)->count;

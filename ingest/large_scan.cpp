@@ -277,6 +277,130 @@ PointRuns lazRuns(const fs::path& path, std::uint64_t count) {
   return {path, count, std::move(read)};
 }
 
+// Bytes of a text file read at a time.
+constexpr std::size_t kTextBlock = std::size_t{16} << 20;
+
+// The file's lines from byte `from` on, each with its terminator (\n, \r\n
+// or \r, as parse::TextCursor ends lines; the last may have none), handed to
+// `visit` in order, a block of the file held at a time.
+Status forEachLine(const fs::path& path, std::uint64_t from, const std::function<void(std::string_view line)>& visit) {
+  std::string pending;  // the start of a line that the block cut
+  for (std::uint64_t at = from;;) {
+    auto block = readFileRange(path, at, kTextBlock);
+    if (!block) return block.error();
+    at += block->size();
+    const bool last = block->size() < kTextBlock;
+    std::string text = std::move(pending) + *block;
+    std::size_t start = 0;
+    for (std::size_t i = 0; i < text.size(); ++i) {
+      if (text[i] != '\n' && text[i] != '\r') continue;
+      // A \r at the block's end may be half of \r\n: the next block decides.
+      if (text[i] == '\r' && i + 1 == text.size() && !last) break;
+      if (text[i] == '\r' && i + 1 < text.size() && text[i + 1] == '\n') ++i;
+      visit(std::string_view(text).substr(start, i + 1 - start));
+      start = i + 1;
+    }
+    pending = text.substr(start);
+    if (last) {
+      if (!pending.empty()) visit(pending);
+      return okStatus();
+    }
+  }
+}
+
+// A format whose points are one to a line: its layout from the file's first
+// bytes, which lines hold points, and its reader of a run of lines.
+struct TextFormat {
+  std::optional<readers::TextLayout> (*layout)(std::string_view head);
+  bool (*isDataLine)(std::string_view line);
+  Scan (*read)(std::string_view head, std::string_view lines, const readers::TextRun& run);
+};
+
+std::optional<TextFormat> textFormatOf(ScanFormat format) {
+  if (format == ScanFormat::Xyz) return TextFormat{readers::xyzTextLayout, readers::isXyzDataLine, readers::readXyzLines};
+  if (format == ScanFormat::Ply) return TextFormat{readers::plyTextLayout, readers::isPlyDataLine, readers::readPlyLines};
+  return std::nullopt;
+}
+
+// Runs of whole lines after the file's head, each holding `runPoints` data
+// lines; the last run holds every line after the one before it, and the
+// rest of `count` as its points: a PLY's lines beyond its header's count are
+// refused by its reader, lines short of it here.
+PointRuns textRuns(const fs::path& path, std::string head, const readers::TextLayout& layout, std::uint64_t count,
+                   const TextFormat& format) {
+  auto read = [path, head = std::move(head), layout, count, format](
+                  std::uint64_t runPoints, const std::function<void(Scan&)>& take) -> Result<std::vector<std::string>> {
+    std::vector<std::string> notes;
+    std::string lines;
+    readers::TextRun run{layout.linesBefore, 0, 0};
+    std::uint64_t linesInRun = 0;
+    std::optional<Error> failed;
+    auto flush = [&] {
+      try {
+        Scan points = format.read(head, lines, run);
+        if (run.pointsBefore == 0) notes = points.readNotes;
+        take(points);
+      } catch (const parse::ParseFailure& failure) {
+        failed = badInput("{}: {}", path.string(), failure.what());
+      }
+      run = {run.linesBefore + linesInRun, run.pointsBefore + run.points, 0};
+      lines.clear();
+      linesInRun = 0;
+    };
+    const Status walked = forEachLine(path, layout.dataBytes, [&](std::string_view line) {
+      if (failed) return;
+      lines += line;
+      ++linesInRun;
+      if (!format.isDataLine(line)) return;
+      ++run.points;
+      const bool last = run.pointsBefore + runPoints >= count;
+      if (!last && run.points == runPoints) flush();
+    });
+    if (!walked) return walked.error();
+    if (!failed && run.pointsBefore + run.points < count)
+      return badInput("{}: line {}: the file ends after {} of the {} points its header declares", path.string(),
+                      run.linesBefore + linesInRun, run.pointsBefore + run.points, count);
+    if (!failed && (run.points > 0 || linesInRun > 0)) {
+      run.points = count - run.pointsBefore;
+      flush();
+    }
+    if (failed) return *failed;
+    return notes;
+  };
+  return {path, count, std::move(read)};
+}
+
+// The data lines after the file's head: the points it holds.
+Result<std::uint64_t> countDataLines(const fs::path& path, const readers::TextLayout& layout, const TextFormat& format) {
+  std::uint64_t points = 0;
+  const Status walked = forEachLine(path, layout.dataBytes, [&](std::string_view line) {
+    if (format.isDataLine(line)) ++points;
+  });
+  if (!walked) return walked.error();
+  return points;
+}
+
+// The file as text runs when its head decides its layout and it may hold
+// more than `maxPoints` points: a PLY's header says; XYZ text is counted
+// when its size allows (a point takes at least 6 bytes, "0 0 0\n": smaller
+// files are read whole without counting). Else nullopt.
+Result<std::optional<PointRuns>> openTextRuns(const fs::path& path, std::string head, const TextFormat& format,
+                                              std::uint64_t maxPoints) {
+  const std::optional<readers::TextLayout> layout = format.layout(head);
+  if (!layout) return std::optional<PointRuns>();
+  std::uint64_t count = layout->count;
+  if (count == 0) {
+    std::error_code error;
+    const std::uint64_t size = fs::file_size(path, error);
+    if (error || size / 6 <= maxPoints) return std::optional<PointRuns>();
+    auto counted = countDataLines(path, *layout, format);
+    if (!counted) return counted.error();
+    count = *counted;
+  }
+  head.resize(layout->headBytes);
+  return std::optional<PointRuns>(textRuns(path, std::move(head), *layout, count, format));
+}
+
 // The starting voxel level: a power of two at or below D / (4 sqrt(maxPoints)),
 // D the diagonal of the file's first kStartPoints points. A surface of area
 // up to 16 D^2 (any scan whose first points span a fair part of it) occupies
@@ -301,14 +425,17 @@ int startLevel(const Scan& firstRun, std::uint64_t maxPoints) {
 
 }  // namespace
 
-Result<std::optional<PointRuns>> openPointRuns(const fs::path& path, ScanFormat format) {
+Result<std::optional<PointRuns>> openPointRuns(const fs::path& path, ScanFormat format, std::uint64_t maxPoints) {
   const std::optional<RecordFormat> records = recordFormatOf(format);
-  if (!records) return std::optional<PointRuns>();
+  const std::optional<TextFormat> text = textFormatOf(format);
+  if (!records && !text) return std::optional<PointRuns>();
   auto head = readFileRange(path, 0, kHeadBytes);
   if (!head) return head.error();
+  if (format == ScanFormat::Xyz) return openTextRuns(path, std::move(*head), *text, maxPoints);
   if (format == ScanFormat::Las)
     if (const auto count = readers::lazPointCount(*head)) return std::optional<PointRuns>(lazRuns(path, *count));
   const auto layout = records->layout(*head);
+  if (text && !layout) return openTextRuns(path, std::move(*head), *text, maxPoints);
   if (!layout || layout->recordBytes == 0) return std::optional<PointRuns>();
   head->resize(static_cast<std::size_t>(layout->recordsAt));
   return std::optional<PointRuns>(recordRuns(path, std::move(*head), *layout, *records));

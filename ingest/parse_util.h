@@ -42,7 +42,9 @@ void splitWhitespace(std::string_view line, std::vector<std::string_view>& token
 // line last returned by next().
 class TextCursor {
  public:
-  explicit TextCursor(std::string_view text) : text_(text) {}
+  // `linesBefore`: lines of the file before `text` (a run of its lines),
+  // so that line numbers are the file's.
+  explicit TextCursor(std::string_view text, std::size_t linesBefore = 0) : text_(text), line_(linesBefore) {}
 
   // Next line without its terminator (\n, \r\n or \r); false at the end.
   bool next(std::string_view& line);
@@ -59,7 +61,7 @@ class TextCursor {
  private:
   std::string_view text_;
   std::size_t pos_ = 0;
-  std::size_t line_ = 0;
+  std::size_t line_;
 };
 
 // Sequential binary reading with explicit endianness and bounds checks.

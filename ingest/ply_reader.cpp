@@ -314,7 +314,10 @@ FacePlan planFaces(const Header& header, std::string_view name = "face") {
 
 class AsciiBody {
  public:
-  AsciiBody(parse::TextCursor cursor, std::size_t totalBytes) : cursor_(cursor), totalBytes_(totalBytes) {}
+  // `firstIndex`: elements of the file before the body's (a run of its
+  // lines), so that messages name the file's element.
+  AsciiBody(parse::TextCursor cursor, std::size_t totalBytes, std::uint64_t firstIndex = 0)
+      : cursor_(cursor), totalBytes_(totalBytes), firstIndex_(firstIndex) {}
 
   void beginElement(const Element& element) {
     element_ = &element;
@@ -332,8 +335,8 @@ class AsciiBody {
     std::string_view line;
     do {
       if (!cursor_.next(line))
-        fail("line {}: file ends after {} of {} {}", cursor_.lineNumber(), index, element_->count,
-             plural(element_->name));
+        fail("line {}: file ends after {} of {} {}", cursor_.lineNumber(), firstIndex_ + index,
+             firstIndex_ + element_->count, plural(element_->name));
       parse::splitWhitespace(line, tokens_);
     } while (tokens_.empty());
     nextToken_ = 0;
@@ -389,7 +392,7 @@ class AsciiBody {
   std::string position() const { return fmt::format("line {}", cursor_.lineNumber()); }
 
  private:
-  std::string recordName() const { return fmt::format("{} {}", element_->name, index_); }
+  std::string recordName() const { return fmt::format("{} {}", element_->name, firstIndex_ + index_); }
 
   std::string_view takeToken(const Property& property) {
     if (nextToken_ >= tokens_.size())
@@ -399,6 +402,7 @@ class AsciiBody {
 
   parse::TextCursor cursor_;
   const std::size_t totalBytes_;
+  const std::uint64_t firstIndex_;
   const Element* element_ = nullptr;
   std::uint64_t index_ = 0;
   std::vector<std::string_view> tokens_;
@@ -745,9 +749,9 @@ std::string headerWithVertexCount(std::string_view head, std::uint64_t count) {
   return rewritten;
 }
 
-}  // namespace
-
-std::optional<RecordLayout> plyRecordLayout(std::string_view head) {
+// The header of a PLY whose only data are its vertices (no faces, nothing
+// before or after them), or nullopt.
+std::optional<std::pair<Header, VertexPlan>> verticesAlone(std::string_view head) {
   if (head.find("end_header") == std::string_view::npos) return std::nullopt;
   Header header;
   VertexPlan plan;
@@ -757,10 +761,17 @@ std::optional<RecordLayout> plyRecordLayout(std::string_view head) {
   } catch (const parse::ParseFailure&) {
     return std::nullopt;  // the whole file's read says what is wrong
   }
-  if (header.encoding == Encoding::Ascii) return std::nullopt;
-  // The vertices must be the only data: no faces, nothing before or after them.
   for (const Element& element : header.elements)
     if (&element != plan.element && holdsData(element)) return std::nullopt;
+  return std::pair{std::move(header), plan};
+}
+
+}  // namespace
+
+std::optional<RecordLayout> plyRecordLayout(std::string_view head) {
+  const auto found = verticesAlone(head);
+  if (!found || found->first.encoding == Encoding::Ascii) return std::nullopt;
+  const auto& [header, plan] = *found;
   RecordLayout layout;
   for (const Property& property : plan.element->properties) {
     if (property.isList()) return std::nullopt;
@@ -775,6 +786,25 @@ Scan readPlyRecords(std::string_view head, std::string_view records, const Recor
   std::string file = headerWithVertexCount(head.substr(0, layout.recordsAt), records.size() / layout.recordBytes);
   file += records;
   return readPly(file);
+}
+
+std::optional<TextLayout> plyTextLayout(std::string_view head) {
+  const auto found = verticesAlone(head);
+  if (!found || found->first.encoding != Encoding::Ascii) return std::nullopt;
+  const Header& header = found->first;
+  const std::size_t afterHeader = header.afterHeader.offset();
+  return TextLayout{found->second.element->count, afterHeader, afterHeader, header.afterHeader.lineNumber()};
+}
+
+bool isPlyDataLine(std::string_view line) {
+  return line.find_first_not_of(" \t\r\n\f\v") != std::string_view::npos;
+}
+
+Scan readPlyLines(std::string_view head, std::string_view lines, const TextRun& run) {
+  const std::string runHead = headerWithVertexCount(head, run.points);
+  const Header header = parseHeader(runHead);
+  AsciiBody body(parse::TextCursor(lines, static_cast<std::size_t>(run.linesBefore)), lines.size(), run.pointsBefore);
+  return readBody(header, body);
 }
 
 Scan readPly(std::string_view bytes) {

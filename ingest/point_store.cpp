@@ -422,9 +422,11 @@ Result<PointStore> writePointStore(const fs::path& scanPath, const Scan& oriente
     return internalError("a point store needs the scan's oriented points with normals");
   auto format = formatFromExtension(scanPath);
   if (!format) return format.error();
-  auto file = large_scan::openPointRuns(scanPath, *format);
+  auto file = large_scan::openPointRuns(scanPath, *format, 0);
   if (!file) return file.error();
-  if (!*file) return badInput("{}: a point store reads binary PLY (vertices alone), LAS or LAZ files", scanPath.string());
+  if (!*file)
+    return badInput("{}: a point store reads binary PLY (vertices alone), binary PCD of one row, LAS, LAZ or XYZ/CSV/PTS files",
+                    scanPath.string());
   std::error_code error;
   fs::remove(folder / kManifest, error);  // the store is incomplete from here on
   fs::create_directories(folder, error);

@@ -61,6 +61,38 @@ Scan readPcdRecords(std::string_view head, std::string_view records, const Recor
 std::optional<std::uint64_t> lazPointCount(std::string_view head);
 std::string readLazRuns(std::string_view file, std::uint64_t runPoints, const std::function<void(Scan& run)>& take);
 
+// Text files whose points are one to a line (XYZ/CSV/PTS; ASCII PLY of
+// vertices alone): runs of whole lines, each behind the file's head, are
+// read with the head's layout, naming the file's lines and points in errors.
+// A file too large to hold is read so, a run at a time (docs/ingest.md,
+// "Large scans").
+struct TextLayout {
+  std::uint64_t count = 0;      // points the header declares (PLY); 0 for XYZ, whose lines are counted
+  std::size_t headBytes = 0;    // each run is read behind [0, headBytes)
+  std::size_t dataBytes = 0;    // the data lines start here (at or before headBytes: XYZ's first
+                                // data line may decide its columns)
+  std::size_t linesBefore = 0;  // lines before dataBytes
+};
+// The layout from the file's first bytes, or nullopt when they do not decide
+// it (a PLY that is binary or holds more than vertices; a head longer than
+// `head`, or malformed: the whole file's read then says what is wrong).
+std::optional<TextLayout> xyzTextLayout(std::string_view head);
+std::optional<TextLayout> plyTextLayout(std::string_view head);
+// Whether a line holds a point: not blank, and (XYZ) not a comment.
+bool isXyzDataLine(std::string_view line);
+bool isPlyDataLine(std::string_view line);
+// A run of whole lines: the lines and points of the file before it, and the
+// points it holds (its data lines; the last run of a PLY: the rest of the
+// header's count, so that lines beyond it are refused as the whole read
+// refuses them).
+struct TextRun {
+  std::uint64_t linesBefore = 0, pointsBefore = 0, points = 0;
+};
+// The scan of `lines` (the run's whole lines) given the file's head
+// (bytes [0, layout.headBytes)). Throws parse::ParseFailure.
+Scan readXyzLines(std::string_view head, std::string_view lines, const TextRun& run);
+Scan readPlyLines(std::string_view head, std::string_view lines, const TextRun& run);
+
 enum class PlyEncoding { Ascii, BinaryLittleEndian };
 // Local: float positions in the scan's frame, its origin in an apo_origin
 // comment. World: double positions origin + position, no comment.

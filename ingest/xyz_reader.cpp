@@ -181,15 +181,17 @@ float attribute(const TextCursor& cursor, std::string_view token) {
 
 class XyzReader {
  public:
-  explicit XyzReader(std::string_view bytes) : cursor_(bytes), fileSize_(bytes.size()) {}
+  XyzReader(std::string_view bytes, std::size_t linesBefore = 0) : cursor_(bytes, linesBefore), fileSize_(bytes.size()) {}
 
-  Scan read() {
+  // The column layout, from a header or from the first data line, which is
+  // then the scan's first point; the cursor stops after that line.
+  Layout readLayout() {
     std::string_view line;
     std::optional<Layout> layout;
     bool afterPointCount = false;
     std::vector<std::string> notes;
-    // The layout: from a header, or from the first data line.
     while (!layout) {
+      dataStart_ = {cursor_.offset(), cursor_.lineNumber()};
       if (!nextLine(line)) failNoPoints(afterPointCount);
       const char separator = separatorOf(line);
       if (isComment(line)) {
@@ -207,15 +209,31 @@ class XyzReader {
       if (!allNumbers(tokens_)) {
         layout = headerLayout(tokens_, separator, cursor_.lineNumber(), false, notes);
         if (!layout) failOnFirstNonNumber();
+        dataStart_ = {cursor_.offset(), cursor_.lineNumber()};
         continue;
       }
       layout = layoutForCount(tokens_.size(), afterPointCount, separator, cursor_.lineNumber());
       appendPoint(*layout);
     }
-    while (nextDataLine(layout->separator)) appendPoint(*layout);
-    if (positions_.size() == 0) fail("line {}: no points after the header", cursor_.lineNumber());
+    scan_.readNotes = std::move(notes);
+    return *layout;
+  }
+
+  // Bytes and lines read so far, and where the data lines start (at the
+  // line that decided the layout when it was one).
+  std::size_t offset() const { return cursor_.offset(); }
+  std::size_t lineNumber() const { return cursor_.lineNumber(); }
+  struct Place {
+    std::size_t bytes = 0, lines = 0;
+  };
+  const Place& dataStart() const { return dataStart_; }
+  // What readLayout noted (columns not kept).
+  const std::vector<std::string>& notes() const { return scan_.readNotes; }
+
+  // The data lines from the cursor on, as the scan's (next) points.
+  Scan readPoints(const Layout& layout) {
+    while (nextDataLine(layout.separator)) appendPoint(layout);
     positions_.finishInto(scan_);
-    scan_.readNotes.insert(scan_.readNotes.begin(), notes.begin(), notes.end());
     return std::move(scan_);
   }
 
@@ -282,6 +300,7 @@ class XyzReader {
   }
 
   TextCursor cursor_;
+  Place dataStart_;
   std::size_t fileSize_;
   std::vector<std::string_view> tokens_;
   PositionCollector positions_;
@@ -290,6 +309,35 @@ class XyzReader {
 
 }  // namespace
 
-Scan readXyz(std::string_view bytes) { return XyzReader(bytes).read(); }
+Scan readXyz(std::string_view bytes) {
+  XyzReader reader(bytes);
+  const Layout layout = reader.readLayout();
+  Scan scan = reader.readPoints(layout);
+  if (scan.points.size() == 0) fail("line {}: no points after the header", reader.lineNumber());
+  return scan;
+}
+
+std::optional<TextLayout> xyzTextLayout(std::string_view head) {
+  XyzReader reader(head);
+  try {
+    reader.readLayout();
+  } catch (const parse::ParseFailure&) {
+    return std::nullopt;  // the whole file's read says what is wrong
+  }
+  return TextLayout{0, reader.offset(), reader.dataStart().bytes, reader.dataStart().lines};
+}
+
+bool isXyzDataLine(std::string_view line) {
+  line = trimmedLeft(line);
+  return !line.empty() && !isComment(line);
+}
+
+Scan readXyzLines(std::string_view head, std::string_view lines, const TextRun& run) {
+  XyzReader headReader(head);
+  const Layout layout = headReader.readLayout();
+  Scan scan = XyzReader(lines, static_cast<std::size_t>(run.linesBefore)).readPoints(layout);
+  scan.readNotes.insert(scan.readNotes.begin(), headReader.notes().begin(), headReader.notes().end());
+  return scan;
+}
 
 }  // namespace apo::readers

@@ -9,6 +9,7 @@
 #include "ingest/readers.h"
 #include "tests/test_support.h"
 
+#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include <gtest/gtest.h>
@@ -69,7 +70,7 @@ std::map<Key, Sum> groupByVoxel(const Scan& scan, double size) {
 }
 
 large_scan::PointRuns open(const fs::path& path) {
-  auto file = large_scan::openPointRuns(path, *formatFromExtension(path));
+  auto file = large_scan::openPointRuns(path, *formatFromExtension(path), 0);
   EXPECT_TRUE(file.ok()) << (file ? "" : file.error().message);
   EXPECT_TRUE(file && file->has_value());
   return **file;
@@ -104,15 +105,35 @@ bool writeBinaryPcd(const fs::path& path, const Scan& scan) {
   return writeFileAtomically(path, bytes).ok();
 }
 
-// Binary PLY, LAS, LAZ (LASzip compressor 2, chunks of 50,000 points) and
-// binary PCD.
+// The scan as CloudCompare exports a CSV: a header behind "//", world
+// coordinates, normals, colours, intensity; a comment and a blank line among
+// the points (readers skip them: runs count points, not lines).
+bool writeCsv(const fs::path& path, const Scan& scan) {
+  const PointSet& points = scan.points;
+  std::string text = "//X,Y,Z,Nx,Ny,Nz,R,G,B,Intensity\n";
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    if (i == 1000) text += "# the second station\n\n";
+    const auto p = world(scan, i);
+    const Vec3f& n = points.normals[i];
+    const Rgb8& c = points.colors[i];
+    text += fmt::format("{:.5f},{:.5f},{:.5f},{},{},{},{},{},{},{}\n", p[0], p[1], p[2], n.x(), n.y(), n.z(), c.r, c.g,
+                        c.b, points.intensities[i]);
+  }
+  return writeFileAtomically(path, text).ok();
+}
+
+// Binary PLY, LAS, LAZ (LASzip compressor 2, chunks of 50,000 points),
+// binary PCD, CSV and ASCII PLY.
 class LargeScanTest : public ::testing::TestWithParam<std::string> {
  protected:
-  // The sheet written in the parameter's format (world coordinates in the file).
+  // The sheet written in the parameter's format (world coordinates in the
+  // file but for ASCII PLY, whose apo_origin comment gives them).
   fs::path writeSheet(const Scan& scan) {
-    const fs::path path = test::freshTempDir() / ("sheet." + GetParam());
-    const bool written = GetParam() == "ply"   ? writePly(path, scan, /*worldCoordinates=*/true).ok()
+    const fs::path path = test::freshTempDir() / ("sheet." + std::string(GetParam() == "asciiply" ? "ply" : GetParam()));
+    const bool written = GetParam() == "ply"        ? writePly(path, scan, /*worldCoordinates=*/true).ok()
+                         : GetParam() == "asciiply" ? writePlyAscii(path, scan).ok()
                          : GetParam() == "pcd" ? writeBinaryPcd(path, scan)
+                         : GetParam() == "csv" ? writeCsv(path, scan)
                                                : writeLas(path, scan, /*compressed=*/GetParam() == "laz").ok();
     EXPECT_TRUE(written);
     return path;
@@ -171,8 +192,8 @@ TEST_P(LargeScanTest, CentroidsAreEveryPointGroupedAtTheFinestVoxelWithinTheLimi
     for (int axis = 0; axis < 3; ++axis)
       ASSERT_NEAR(centroid[axis], sum.position[axis] / static_cast<double>(sum.count), 1e-3) << "voxel " << i;
   }
-  // Averaged attributes: the sheet's normals (PLY and PCD hold them, LAS does not) all point up.
-  if (GetParam() == "ply" || GetParam() == "pcd") {
+  // Averaged attributes: the sheet's normals (PLY, PCD and CSV hold them, LAS does not) all point up.
+  if (GetParam() != "las" && GetParam() != "laz") {
     ASSERT_EQ(subsample->scan.points.normals.size(), voxels.size());
     EXPECT_GT(subsample->scan.points.normals.front().normalized().z(), 0.999f);
   }
@@ -211,24 +232,56 @@ TEST_P(LargeScanTest, TruncatedFileIsRefusedWithItsByte) {
   ASSERT_FALSE(subsample.ok());
   EXPECT_EQ(subsample.error().kind, ErrorKind::BadInput);
   EXPECT_NE(subsample.error().message.find(cut.string()), std::string::npos);
-  const bool named = subsample.error().message.find(GetParam() == "laz" ? "LAZ chunk" : "the file ends inside point record") != std::string::npos;
+  const char* expected = GetParam() == "laz"   ? "LAZ chunk"
+                         : GetParam() == "csv" ? "line 3002: expected 10 columns"  // the cut line: a header, a comment, a blank, 2999 points
+                         : GetParam() == "asciiply" ? "line 3015: the file ends after 2999 of the 3000 points"  // 16 header lines
+                                               : "the file ends inside point record";
+  const bool named = subsample.error().message.find(expected) != std::string::npos;
   EXPECT_TRUE(named) << subsample.error().message;
 }
 
-INSTANTIATE_TEST_SUITE_P(Formats, LargeScanTest, ::testing::Values("ply", "las", "laz", "pcd"),
+INSTANTIATE_TEST_SUITE_P(Formats, LargeScanTest, ::testing::Values("ply", "las", "laz", "pcd", "csv", "asciiply"),
                          [](const auto& info) { return info.param; });
 
-TEST(LargeScan, AsciiPlyAndPlyMeshesAreReadWhole) {
+TEST(LargeScan, PlyMeshesAreReadWhole) {
   const fs::path dir = test::freshTempDir();
   Scan sheet = wavySheet(100, 5);
-  ASSERT_TRUE(writePlyAscii(dir / "a.ply", sheet).ok());
   sheet.triangles.push_back({0, 1, 2});
   ASSERT_TRUE(writePly(dir / "mesh.ply", sheet).ok());
-  for (const char* name : {"a.ply", "mesh.ply"}) {
-    auto file = large_scan::openPointRuns(dir / name, ScanFormat::Ply);
+  ASSERT_TRUE(writePlyAscii(dir / "ascii-mesh.ply", sheet).ok());
+  for (const char* name : {"mesh.ply", "ascii-mesh.ply"}) {
+    auto file = large_scan::openPointRuns(dir / name, ScanFormat::Ply, 0);
     ASSERT_TRUE(file.ok());
     EXPECT_FALSE(file->has_value()) << name;
   }
+}
+
+// An ASCII PLY's lines beyond its header's count are refused, and so are
+// too few, naming the file's line; an error inside a later run names the
+// file's line and vertex.
+TEST(LargeScan, AsciiPlyRunsAreCheckedAgainstTheHeadersCount) {
+  const fs::path dir = test::freshTempDir();
+  std::string body;
+  for (int i = 0; i < 3000; ++i) body += fmt::format("{} {} 1\n", i, i % 5);
+  const std::string header = "ply\nformat ascii 1.0\nelement vertex 3000\nproperty float x\nproperty float y\n"
+                             "property float z\nend_header\n";  // 7 lines
+  auto readAll = [&](const std::string& name, const std::string& text) {
+    test::writeBytes(dir / name, text);
+    auto file = large_scan::openPointRuns(dir / name, ScanFormat::Ply, 0);
+    EXPECT_TRUE(file.ok() && file->has_value());
+    std::uint64_t points = 0;
+    auto read = (*file)->read(1000, [&](Scan& run) { points += run.points.size(); });
+    return read.ok() ? fmt::format("{} points", points) : read.error().message;
+  };
+  EXPECT_EQ(readAll("exact.ply", header + body), "3000 points");
+  EXPECT_NE(readAll("more.ply", header + body + "7 7 7\n").find("line 3008: unexpected data after the last element"),
+            std::string::npos);
+  EXPECT_NE(readAll("fewer.ply", header + body.substr(0, body.rfind("2999 "))).find("line 3006: the file ends after 2999 of the 3000"),
+            std::string::npos);
+  std::string bad = body;
+  bad.replace(bad.find("2500 "), 4, "25z0");
+  EXPECT_NE(readAll("bad.ply", header + bad).find("line 2508: non-numeric token '25z0' in vertex 2500"),
+            std::string::npos);
 }
 
 // An ASCII PCD, and an organised one (its grid is triangulated whole), are
@@ -243,10 +296,44 @@ TEST(LargeScan, AsciiAndOrganisedPcdsAreReadWhole) {
   test::writeBytes(dir / "organised.pcd", head + "WIDTH 2\nHEIGHT 2\nPOINTS 4\nDATA binary\n" + records);
   test::writeBytes(dir / "row.pcd", head + "WIDTH 4\nHEIGHT 1\nPOINTS 4\nDATA binary\n" + records);
   for (const char* name : {"ascii.pcd", "organised.pcd", "row.pcd"}) {
-    auto file = large_scan::openPointRuns(dir / name, ScanFormat::Pcd);
+    auto file = large_scan::openPointRuns(dir / name, ScanFormat::Pcd, 0);
     ASSERT_TRUE(file.ok()) << file.error().message;
     EXPECT_EQ(file->has_value(), std::string(name) == "row.pcd") << name;
   }
+}
+
+// XYZ text: the first data line, which decides the layout when no header
+// names the columns, is the first point of the first run; a bad token in a
+// later run is named by the file's line; a file too small to hold more than
+// the limit is read whole without counting its lines.
+TEST(LargeScan, XyzRunsKeepEveryPointAndTheFilesLineNumbers) {
+  const fs::path dir = test::freshTempDir();
+  std::string text = "5000\n";  // a PTS point count
+  for (int i = 0; i < 5000; ++i) text += fmt::format("{} {} {}\r\n", i, i % 7, 0.5 * i);
+  test::writeBytes(dir / "a.pts", text);
+  auto file = large_scan::openPointRuns(dir / "a.pts", ScanFormat::Xyz, 0);
+  ASSERT_TRUE(file.ok() && file->has_value());
+  EXPECT_EQ((*file)->count, 5000u);
+  std::vector<double> xs;
+  auto read = (*file)->read(1200, [&](Scan& run) {
+    for (std::size_t i = 0; i < run.points.size(); ++i) xs.push_back(world(run, i)[0]);
+  });
+  ASSERT_TRUE(read.ok()) << read.error().message;
+  ASSERT_EQ(xs.size(), 5000u);
+  for (int i = 0; i < 5000; ++i) ASSERT_NEAR(xs[i], i, 1e-3);
+
+  text.replace(text.find("4321 "), 4, "4x21");  // line 4323: the count line, then points 0..4321
+  test::writeBytes(dir / "bad.pts", text);
+  auto bad = large_scan::openPointRuns(dir / "bad.pts", ScanFormat::Xyz, 0);
+  ASSERT_TRUE(bad.ok() && bad->has_value());
+  auto failed = (*bad)->read(1200, [](Scan&) {});
+  ASSERT_FALSE(failed.ok());
+  EXPECT_NE(failed.error().message.find("line 4323: non-numeric token '4x21'"), std::string::npos)
+      << failed.error().message;
+
+  auto small = large_scan::openPointRuns(dir / "a.pts", ScanFormat::Xyz, text.size() / 6);
+  ASSERT_TRUE(small.ok());
+  EXPECT_FALSE(small->has_value());
 }
 
 // A coordinate of 10^38 (a corrupt file) after the first points has no voxel

@@ -197,8 +197,10 @@ TEST_F(PointStoreTest, AWriteThatFailsLeavesNoStoreAndARerunCompletes) {
 }
 
 TEST_F(PointStoreTest, FilesReadWholeAreRefused) {
-  ASSERT_TRUE(writePlyAscii(dir_ / "ascii.ply", scan_).ok());
-  auto store = writePointStore(dir_ / "ascii.ply", oriented_, 16, dir_ / "ascii-store");
+  Scan mesh = scan_;
+  mesh.triangles.push_back({0, 1, 2});
+  ASSERT_TRUE(writePly(dir_ / "mesh.ply", mesh).ok());
+  auto store = writePointStore(dir_ / "mesh.ply", oriented_, 16, dir_ / "mesh-store");
   ASSERT_FALSE(store.ok());
   EXPECT_EQ(store.error().kind, ErrorKind::BadInput);
   EXPECT_THAT(store.error().message, HasSubstr("binary PLY"));
