@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Issue 44: what the normals still flipped with scan positions are, and
 # what per-scan neighbourhoods would change (docs/benchmarks.md, "Scan
-# positions"). The camel scanned from 10 positions as bench/e57_scans.sh
+# positions"). The camel (or MESH) scanned from 10 positions as bench/e57_scans.sh
 # scans it (the same seed: the same points), also as LAS, whose point source
 # ids name each point's scan; `apo ingest` of the E57 as points (normals
 # towards their own scan positions); then, on the same points:
@@ -12,11 +12,12 @@
 #     cannot see both faces of a thin part), turned towards the scanner;
 #   - the product's normals re-signed by those per-scan normals where the
 #     product saw the point at a grazing angle.
-# Usage (after the README's setup and build): bash bench/e57_flips.sh [OUTDIR]   (about 1 minute)
+# Usage (after the README's setup and build):
+#   [MESH=datasets/cgal/meshes/elephant.off] bash bench/e57_flips.sh [OUTDIR]   (about 1 minute)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-out/bench/e57_flips}
-mesh=datasets/cgal/meshes/camel.off
+mesh=${MESH:-datasets/cgal/meshes/camel.off}
 mkdir -p "$out"
 build/apo -q simulate-scan "$mesh" --views 10 --rays 300 -o "$out/truth.ply" --normals
 build/apo -q simulate-scan "$mesh" --views 10 --rays 300 -o "$out/scan.ply" --e57 "$out/scan.e57" --las "$out/scan.las"

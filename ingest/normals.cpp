@@ -36,6 +36,14 @@ constexpr int kMinMstNeighbours = 12;
 constexpr std::size_t kPropagationNeighbours = 12;
 constexpr double kMinPlanarity = 0.25;  // median lambda1/lambda2 of a 2-D patch
 constexpr double kSameSpread = 1e-6;    // eigenvalues closer than this share of the trace are equal
+// Lines of sight whose cosine is below this (more than 107 degrees apart)
+// come from the other side of a surface: two scans grazing one face from
+// either side are rarely that far apart. Chosen on the camel's 10 scans
+// among -0.5 to 0.5 and checked on four other meshes (docs/benchmarks.md,
+// "Scan positions"): fewer flipped normals on all five, a lower mean angle
+// on all five; at 0 two of them had a higher mean angle.
+constexpr float kOtherSide = -0.3f;
+constexpr std::size_t kMinSameSide = 6;
 
 // Eigenvalues (ascending) of the covariance of the first k neighbours.
 Eigen::Vector3d covarianceEigenvalues(const std::vector<Vec3f>& points, const std::vector<int>& neighbours, int k) {
@@ -378,16 +386,42 @@ Vec3f planeNormal(const Vec3f& point, const std::vector<Vec3f>& points, const st
   return normal;
 }
 
-// PCA normals from each point and its first k - 1 graph neighbours, each
-// turned towards its sensor, on every core (each normal written by one
+// The first `others` graph neighbours of point i seen from its side: those
+// whose line of sight (from the neighbour to its own sensor) is within
+// kOtherSide of point i's. Where a part is thinner than the neighbourhood,
+// scans taken from opposite sides each see one face; the other face's
+// points, seen from the other side, would tilt the plane. All of them when
+// fewer than kMinSameSide remain.
+std::size_t sameSideNeighbours(std::size_t i, const std::vector<Vec3f>& points, const flann_adapter::NeighbourGraph& graph,
+                               std::size_t others, const Sensors& sensors, std::vector<std::uint32_t>& kept) {
+  const std::uint32_t* row = &graph.neighbours[i * graph.k];
+  const Vec3f sight = (sensors.of(i) - points[i]).normalized();
+  kept.clear();
+  for (std::size_t j = 0; j < others; ++j)
+    if ((sensors.of(row[j]) - points[row[j]]).normalized().dot(sight) >= kOtherSide) kept.push_back(row[j]);
+  if (kept.size() >= kMinSameSide) return kept.size();
+  kept.assign(row, row + others);
+  return others;
+}
+
+// PCA normals from each point and its first k - 1 graph neighbours (with
+// sensors of their own, only those seen from the same side: sameSideNeighbours),
+// each turned towards its sensor, on every core (each normal written by one
 // task: the result does not depend on their number).
 std::vector<Vec3f> pcaNormals(const std::vector<Vec3f>& points, const flann_adapter::NeighbourGraph& graph, int k,
-                              const Sensors& sensors) {
+                              const std::optional<Sensors>& sensors) {
   const std::size_t others = std::min(graph.k, static_cast<std::size_t>(std::max(k - 1, 0)));
+  // Without sensors the propagation decides; the origin only makes the
+  // starting signs reproducible.
+  const Sensors towards = sensors ? *sensors : Sensors::single(Vec3f::Zero());
   std::vector<Vec3f> normals(points.size());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 4096), [&](const auto& range) {
-    for (std::size_t i = range.begin(); i < range.end(); ++i)
-      normals[i] = planeNormal(points[i], points, &graph.neighbours[i * graph.k], others, sensors.of(i));
+    std::vector<std::uint32_t> kept;
+    for (std::size_t i = range.begin(); i < range.end(); ++i) {
+      const std::size_t count = sensors ? sameSideNeighbours(i, points, graph, others, *sensors, kept) : others;
+      const std::uint32_t* fitted = sensors ? kept.data() : &graph.neighbours[i * graph.k];
+      normals[i] = planeNormal(points[i], points, fitted, count, towards.of(i));
+    }
   });
   return normals;
 }
@@ -500,16 +534,14 @@ Result<OrientedNormals> estimateOrientedNormals(const std::vector<Vec3f>& points
   if (!graph) return graph.error();
   spdlog::info("ingest: {} nearest neighbours of {} points in {:.2f} s", graph->k, points.size(), phase.seconds());
   phase = Stopwatch();
-  // Without sensors the propagation decides; the origin only makes the
-  // starting signs reproducible.
-  result.normals = pcaNormals(points, *graph, result.neighbours, sensors ? *sensors : Sensors::single(Vec3f::Zero()));
+  result.normals = pcaNormals(points, *graph, result.neighbours, sensors);
   spdlog::info("ingest: PCA normals of {} points in {:.2f} s", points.size(), phase.seconds());
   phase = Stopwatch();
   // With sensors, the propagation is the check (SensorAgreement), whatever
   // `orientation` would have been.
   const OrientationMethod method = sensors ? OrientationMethod::Propagation : orientation;
   std::vector<Vec3f> oriented = result.normals;
-  const Result<IslandOrientation> islands = orientAll(points, oriented, *graph, result.neighbours, method);
+  Result<IslandOrientation> islands = orientAll(points, oriented, *graph, result.neighbours, method);
   if (!islands) return islands.error();
   spdlog::info("ingest: normals oriented by {} in {:.2f} s", orientationMethodName(method), phase.seconds());
   if (sensors) {
@@ -521,6 +553,13 @@ Result<OrientedNormals> estimateOrientedNormals(const std::vector<Vec3f>& points
       result.orientation = "viewpoint";
       return result;
     }
+    // Sensors that are not where the points were seen from say nothing of
+    // which neighbours share a face: the planes are fitted again over every
+    // neighbour, as without sensors.
+    result.normals = pcaNormals(points, *graph, result.neighbours, std::nullopt);
+    oriented = result.normals;
+    islands = orientAll(points, oriented, *graph, result.neighbours, method);
+    if (!islands) return islands.error();
   }
   result.orientation = orientationMethodName(method);
   for (std::size_t i = 0; i < points.size(); ++i)
