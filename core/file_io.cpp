@@ -3,6 +3,7 @@
 #include <openssl/evp.h>
 
 #include <fcntl.h>
+#include <sys/mman.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -93,6 +94,40 @@ Result<std::string> readFileRange(const fs::path& path, std::uint64_t offset, st
   if (static_cast<std::size_t>(in.gcount()) != wanted)
     return badInput("{}: read {} of the {} bytes from byte {}", path.string(), in.gcount(), wanted, offset);
   return bytes;
+}
+
+Result<MappedFile> MappedFile::open(const fs::path& path) {
+  APO_RETURN_IF_ERROR(checkReadableFile(path));
+  const int descriptor = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (descriptor < 0) return badInput("{}: cannot be opened: {}", path.string(), describeErrno(errno));
+  std::error_code ec;
+  const auto size = static_cast<std::size_t>(fs::file_size(path, ec));
+  if (ec) {
+    ::close(descriptor);
+    return badInput("{}: cannot read its size: {}", path.string(), ec.message());
+  }
+  // An empty file maps nothing: no bytes to read.
+  void* data = size == 0 ? nullptr : mmap(nullptr, size, PROT_READ, MAP_PRIVATE, descriptor, 0);
+  const int mapError = errno;
+  ::close(descriptor);  // the mapping keeps the file
+  if (data == MAP_FAILED) return badInput("{}: cannot be mapped: {}", path.string(), describeErrno(mapError));
+  if (data != nullptr) madvise(data, size, MADV_SEQUENTIAL);
+  return MappedFile(data, size);
+}
+
+MappedFile::MappedFile(MappedFile&& other) noexcept : data_(other.data_), size_(other.size_) {
+  other.data_ = nullptr;
+  other.size_ = 0;
+}
+
+MappedFile::~MappedFile() {
+  if (data_ != nullptr) munmap(data_, size_);
+}
+
+void MappedFile::release(std::size_t end) const {
+  const auto page = static_cast<std::size_t>(sysconf(_SC_PAGESIZE));
+  const std::size_t whole = std::min(end, size_) / page * page;
+  if (data_ != nullptr && whole > 0) madvise(data_, whole, MADV_DONTNEED);
 }
 
 Status writeFileAtomically(const fs::path& path,

@@ -25,6 +25,28 @@ Result<std::string> readFileBytes(const std::filesystem::path& path);
 // as readFileBytes's.
 Result<std::string> readFileRange(const std::filesystem::path& path, std::uint64_t offset, std::size_t length);
 
+// A regular file mapped read-only: its bytes, paged in from disk as they are
+// read, and given back (release) once read, so that a file larger than
+// memory can be read through in order. Errors as readFileBytes's.
+class MappedFile {
+ public:
+  static Result<MappedFile> open(const std::filesystem::path& path);
+  MappedFile(MappedFile&& other) noexcept;
+  MappedFile& operator=(MappedFile&&) = delete;
+  MappedFile(const MappedFile&) = delete;
+  ~MappedFile();
+
+  std::string_view bytes() const { return {static_cast<const char*>(data_), size_}; }
+  // Drops the pages wholly before byte `end` from memory (reading them
+  // again pages them in again).
+  void release(std::size_t end) const;
+
+ private:
+  MappedFile(void* data, std::size_t size) : data_(data), size_(size) {}
+  void* data_;
+  std::size_t size_;
+};
+
 // Checks that `path` names a readable regular file without reading it.
 Status checkReadableFile(const std::filesystem::path& path);
 

@@ -256,17 +256,19 @@ PointRuns recordRuns(const fs::path& path, std::string head, const readers::Reco
   return {path, layout.count, std::move(read)};
 }
 
-// A LAZ file held whole (compressed), its chunks decompressed a run at a time.
+// A LAZ file mapped, its chunks decompressed a run at a time, each run's
+// compressed bytes given back once decoded.
 PointRuns lazRuns(const fs::path& path, std::uint64_t count) {
   auto read = [path](std::uint64_t runPoints,
                      const std::function<void(Scan&)>& take) -> Result<std::vector<std::string>> {
-    auto bytes = readFileBytes(path);
-    if (!bytes) return bytes.error();
+    auto file = MappedFile::open(path);
+    if (!file) return file.error();
     std::vector<std::string> notes;
     try {
-      const std::string summary = readers::readLazRuns(*bytes, runPoints, [&](Scan& run) {
+      const std::string summary = readers::readLazRuns(file->bytes(), runPoints, [&](Scan& run, std::size_t end) {
         if (notes.empty()) notes = run.readNotes;
         take(run);
+        file->release(end);
       });
       notes.insert(notes.begin(), summary);
     } catch (const parse::ParseFailure& failure) {
@@ -318,7 +320,8 @@ struct TextFormat {
 
 std::optional<TextFormat> textFormatOf(ScanFormat format) {
   if (format == ScanFormat::Xyz) return TextFormat{readers::xyzTextLayout, readers::isXyzDataLine, readers::readXyzLines};
-  if (format == ScanFormat::Ply) return TextFormat{readers::plyTextLayout, readers::isPlyDataLine, readers::readPlyLines};
+  if (format == ScanFormat::Ply) return TextFormat{readers::plyTextLayout, readers::isNonBlankLine, readers::readPlyLines};
+  if (format == ScanFormat::Pcd) return TextFormat{readers::pcdTextLayout, readers::isNonBlankLine, readers::readPcdLines};
   return std::nullopt;
 }
 

@@ -43,8 +43,8 @@ struct PointRuns {
 // The file as PointRuns when its format allows: binary PLY of vertices alone,
 // uncompressed LAS and binary PCD of one row (runs of records read from disk,
 // each as a file of its own: readers.h, RecordLayout), LAZ (the compressed
-// file held, its chunks decompressed a run at a time), ASCII PLY of vertices
-// alone, and XYZ/CSV/PTS text that may hold more than `maxPoints` points (its
+// file mapped, its chunks decompressed a run at a time), ASCII PLY of
+// vertices alone, ASCII PCD of one row, and XYZ/CSV/PTS text that may hold more than `maxPoints` points (its
 // data lines counted in a first pass): runs of whole lines, each read behind
 // the file's head (readers.h, TextLayout); else nullopt.
 Result<std::optional<PointRuns>> openPointRuns(const std::filesystem::path& path, ScanFormat format,

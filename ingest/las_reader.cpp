@@ -256,7 +256,8 @@ std::optional<std::uint64_t> lazPointCount(std::string_view head) {
   }
 }
 
-std::string readLazRuns(std::string_view file, std::uint64_t runPoints, const std::function<void(Scan& run)>& take) {
+std::string readLazRuns(std::string_view file, std::uint64_t runPoints,
+                        const std::function<void(Scan& run, std::size_t end)>& take) {
   const Header header = parseHeader(file);
   if (!header.compressed) fail("byte 104: point data format byte {}: not LAZ", byteAt(file, 104));
   checkHasPoints(header);
@@ -264,9 +265,9 @@ std::string readLazRuns(std::string_view file, std::uint64_t runPoints, const st
   std::string head(file.substr(0, header.pointOffset));
   head[104] = static_cast<char>(header.format);
   const RecordLayout layout{header.pointCount, header.pointOffset, header.recordLength};
-  return laz::decompressPointsInRuns(file, lazLayout(header), runPoints, [&](std::string& records) {
+  return laz::decompressPointsInRuns(file, lazLayout(header), runPoints, [&](std::string& records, std::size_t end) {
     Scan run = readLasRecords(head, records, layout);
-    take(run);
+    take(run, end);
   });
 }
 

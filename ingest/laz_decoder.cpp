@@ -408,7 +408,7 @@ std::string describe(const LaszipVlr& vlr, std::size_t chunks) {
 }  // namespace
 
 std::string decompressPointsInRuns(std::string_view file, const PointRecords& las, std::uint64_t runPoints,
-                                   const std::function<void(std::string& records)>& take) {
+                                   const std::function<void(std::string& records, std::size_t end)>& take) {
   const LaszipVlr vlr = parseLaszipVlr(file, las);
   if (las.pointCount == 0) return describe(vlr, 0);
   const std::uint64_t dataBytes = file.size() - las.pointsAt;
@@ -429,7 +429,7 @@ std::string decompressPointsInRuns(std::string_view file, const PointRecords& la
     if (chunk.begin == Chunk::kAfterThePrevious) chunk.begin = sequentialAt;
     sequentialAt = chunk.begin + decoder.decodeChunk(file, chunk, i, records);
     if (records.size() >= runBytes || i + 1 == chunks.size()) {
-      take(records);
+      take(records, sequentialAt);
       records.clear();
     }
   }
@@ -439,7 +439,7 @@ std::string decompressPointsInRuns(std::string_view file, const PointRecords& la
 Decompressed decompressPoints(std::string_view file, const PointRecords& las) {
   Decompressed result;
   result.summary = decompressPointsInRuns(file, las, std::numeric_limits<std::uint64_t>::max() / las.recordLength,
-                                          [&](std::string& records) { result.records = std::move(records); });
+                                          [&](std::string& records, std::size_t) { result.records = std::move(records); });
   return result;
 }
 

@@ -54,9 +54,11 @@ Decompressed decompressPoints(std::string_view file, const PointRecords& las);
 // The same a run of whole chunks at a time, for files whose points are too
 // many to hold: `take` gets the records of each run of chunks holding at
 // least `runPoints` points (the last run may hold fewer), in order, and may
-// move them away. Returns the summary. Throws as decompressPoints does, after
-// the runs before the bad chunk were taken.
+// move them away, and the byte where the run's chunks end (the bytes before
+// it, but for the chunk table read first, are not read again). Returns the
+// summary. Throws as decompressPoints does, after the runs before the bad
+// chunk were taken.
 std::string decompressPointsInRuns(std::string_view file, const PointRecords& las, std::uint64_t runPoints,
-                                   const std::function<void(std::string& records)>& take);
+                                   const std::function<void(std::string& records, std::size_t end)>& take);
 
 }  // namespace apo::laz

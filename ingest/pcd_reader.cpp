@@ -491,7 +491,10 @@ void rejectDataAfterLastPoint(parse::TextCursor& cursor, std::vector<std::string
   }
 }
 
-void readAsciiBody(parse::TextCursor& cursor, std::size_t bodyBytes, const Header& header, Body& out) {
+// `firstPoint`: points of the file before the body's (a run of its lines),
+// so that messages name the file's point.
+void readAsciiBody(parse::TextCursor& cursor, std::size_t bodyBytes, const Header& header, Body& out,
+                   std::uint64_t firstPoint = 0) {
   // Each point takes at least one character and one separator per token, so
   // a lying POINTS cannot make this reserve more than the file could hold.
   reservePoints(out, header.columns, std::min<std::uint64_t>(header.points, bodyBytes / header.tokensPerPoint / 2 + 1));
@@ -501,17 +504,18 @@ void readAsciiBody(parse::TextCursor& cursor, std::size_t bodyBytes, const Heade
   std::uint64_t done = 0;
   while (done < header.points) {
     if (!cursor.next(line))
-      fail("line {}: file ends after {} of {} points", cursor.lineNumber(), done, header.points);
+      fail("line {}: file ends after {} of {} points", cursor.lineNumber(), firstPoint + done,
+           firstPoint + header.points);
     parse::splitWhitespace(line, tokens);
     if (tokens.empty()) continue;  // blank lines are allowed, as in PCL
     if (tokens.size() != header.tokensPerPoint)
-      fail("line {}: point {} has {} values, expected {} (the sum of COUNT)", cursor.lineNumber(), done,
+      fail("line {}: point {} has {} values, expected {} (the sum of COUNT)", cursor.lineNumber(), firstPoint + done,
            tokens.size(), header.tokensPerPoint);
-    parseAsciiPoint(cursor, tokens, header, done, point);
+    parseAsciiPoint(cursor, tokens, header, firstPoint + done, point);
     appendPoint(header.columns, point, out);
     ++done;
   }
-  rejectDataAfterLastPoint(cursor, tokens, header.points);
+  rejectDataAfterLastPoint(cursor, tokens, firstPoint + header.points);
 }
 
 // ---- DATA binary and binary_compressed ----
@@ -673,6 +677,32 @@ std::optional<RecordLayout> pcdRecordLayout(std::string_view head) {
   // An organised cloud's grid is triangulated whole (docs/ingest.md).
   if (header.encoding != Encoding::Binary || header.height > 1) return std::nullopt;
   return RecordLayout{header.points, recordsAt, header.recordSize};
+}
+
+std::optional<TextLayout> pcdTextLayout(std::string_view head) {
+  Header header;
+  parse::TextCursor cursor(head);
+  try {
+    header = HeaderReader(cursor).read();
+  } catch (const parse::ParseFailure&) {
+    return std::nullopt;  // the whole file's read says what is wrong
+  }
+  // An organised cloud's grid is triangulated whole (docs/ingest.md).
+  if (header.encoding != Encoding::Ascii || header.height > 1) return std::nullopt;
+  return TextLayout{header.points, cursor.offset(), cursor.offset(), cursor.lineNumber()};
+}
+
+Scan readPcdLines(std::string_view head, std::string_view lines, const TextRun& run) {
+  const std::string runHead = headerWithPointCount(head, run.points);
+  parse::TextCursor headCursor(runHead);
+  const Header header = HeaderReader(headCursor).read();
+  Scan scan;
+  Body body{{}, scan.points};
+  parse::TextCursor cursor(lines, static_cast<std::size_t>(run.linesBefore));
+  readAsciiBody(cursor, lines.size(), header, body, run.pointsBefore);
+  body.positions.finishInto(scan);
+  if (header.viewpoint) scan.viewpoint = inLocalFrame(*header.viewpoint, scan.origin);
+  return scan;
 }
 
 Scan readPcdRecords(std::string_view head, std::string_view records, const RecordLayout& layout) {

@@ -796,10 +796,6 @@ std::optional<TextLayout> plyTextLayout(std::string_view head) {
   return TextLayout{found->second.element->count, afterHeader, afterHeader, header.afterHeader.lineNumber()};
 }
 
-bool isPlyDataLine(std::string_view line) {
-  return line.find_first_not_of(" \t\r\n\f\v") != std::string_view::npos;
-}
-
 Scan readPlyLines(std::string_view head, std::string_view lines, const TextRun& run) {
   const std::string runHead = headerWithVertexCount(head, run.points);
   const Header header = parseHeader(runHead);

@@ -56,13 +56,15 @@ Scan readPcdRecords(std::string_view head, std::string_view records, const Recor
 // the header does not read: the whole file's read then says why), and the
 // points of each run of whole chunks holding at least `runPoints` (the last
 // may hold fewer), each read as readLasRecords reads uncompressed records
-// and handed to `take`. Returns how the file was compressed (a read note).
+// and handed to `take` with the byte where its chunks end. Returns how the
+// file was compressed (a read note).
 // Throws parse::ParseFailure as readLas does.
 std::optional<std::uint64_t> lazPointCount(std::string_view head);
-std::string readLazRuns(std::string_view file, std::uint64_t runPoints, const std::function<void(Scan& run)>& take);
+std::string readLazRuns(std::string_view file, std::uint64_t runPoints,
+                        const std::function<void(Scan& run, std::size_t end)>& take);
 
 // Text files whose points are one to a line (XYZ/CSV/PTS; ASCII PLY of
-// vertices alone): runs of whole lines, each behind the file's head, are
+// vertices alone; ASCII PCD of one row): runs of whole lines, each behind the file's head, are
 // read with the head's layout, naming the file's lines and points in errors.
 // A file too large to hold is read so, a run at a time (docs/ingest.md,
 // "Large scans").
@@ -78,9 +80,10 @@ struct TextLayout {
 // `head`, or malformed: the whole file's read then says what is wrong).
 std::optional<TextLayout> xyzTextLayout(std::string_view head);
 std::optional<TextLayout> plyTextLayout(std::string_view head);
-// Whether a line holds a point: not blank, and (XYZ) not a comment.
+std::optional<TextLayout> pcdTextLayout(std::string_view head);
+// Whether a line holds a point: not blank (PLY, PCD), and not a comment (XYZ).
 bool isXyzDataLine(std::string_view line);
-bool isPlyDataLine(std::string_view line);
+bool isNonBlankLine(std::string_view line);
 // A run of whole lines: the lines and points of the file before it, and the
 // points it holds (its data lines; the last run of a PLY: the rest of the
 // header's count, so that lines beyond it are refused as the whole read
@@ -92,6 +95,7 @@ struct TextRun {
 // (bytes [0, layout.headBytes)). Throws parse::ParseFailure.
 Scan readXyzLines(std::string_view head, std::string_view lines, const TextRun& run);
 Scan readPlyLines(std::string_view head, std::string_view lines, const TextRun& run);
+Scan readPcdLines(std::string_view head, std::string_view lines, const TextRun& run);
 
 enum class PlyEncoding { Ascii, BinaryLittleEndian };
 // Local: float positions in the scan's frame, its origin in an apo_origin

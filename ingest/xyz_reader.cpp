@@ -327,10 +327,9 @@ std::optional<TextLayout> xyzTextLayout(std::string_view head) {
   return TextLayout{0, reader.offset(), reader.dataStart().bytes, reader.dataStart().lines};
 }
 
-bool isXyzDataLine(std::string_view line) {
-  line = trimmedLeft(line);
-  return !line.empty() && !isComment(line);
-}
+bool isNonBlankLine(std::string_view line) { return line.find_first_not_of(" \t\r\n\f\v") != std::string_view::npos; }
+
+bool isXyzDataLine(std::string_view line) { return isNonBlankLine(line) && !isComment(line); }
 
 Scan readXyzLines(std::string_view head, std::string_view lines, const TextRun& run) {
   XyzReader headReader(head);

@@ -84,22 +84,30 @@ void appendRaw(std::string& out, T value) {
 // A sensor above the sheet, in the file's coordinates.
 constexpr std::array<double, 3> kSheetSensor = {500010.0, 4000005.0, 150.0};
 
-// The scan as PCL writes a binary PCD of one row (no PCD writer of ours):
-// world coordinates in doubles, normals, packed colour, intensity, and a
-// VIEWPOINT at kSheetSensor.
-bool writeBinaryPcd(const fs::path& path, const Scan& scan) {
+// The scan as PCL writes a PCD of one row (no PCD writer of ours): world
+// coordinates in doubles, normals, packed colour, intensity, and a VIEWPOINT
+// at kSheetSensor; binary, or ASCII (the same values as text).
+bool writePcd(const fs::path& path, const Scan& scan, bool binary) {
   const PointSet& points = scan.points;
   std::string bytes = "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\n"
                       "FIELDS x y z normal_x normal_y normal_z rgb intensity\nSIZE 8 8 8 4 4 4 4 4\n"
                       "TYPE F F F F F F U F\nCOUNT 1 1 1 1 1 1 1 1\n";
   bytes += "WIDTH " + std::to_string(points.size()) + "\nHEIGHT 1\nVIEWPOINT " + std::to_string(kSheetSensor[0]) + " " +
            std::to_string(kSheetSensor[1]) + " " + std::to_string(kSheetSensor[2]) + " 1 0 0 0\nPOINTS " +
-           std::to_string(points.size()) + "\nDATA binary\n";
+           std::to_string(points.size()) + (binary ? "\nDATA binary\n" : "\nDATA ascii\n");
   for (std::size_t i = 0; i < points.size(); ++i) {
-    for (const double coordinate : world(scan, i)) appendRaw(bytes, coordinate);
-    for (int axis = 0; axis < 3; ++axis) appendRaw(bytes, points.normals[i][axis]);
+    const auto p = world(scan, i);
+    const Vec3f& n = points.normals[i];
     const Rgb8& c = points.colors[i];
-    appendRaw(bytes, (std::uint32_t{c.r} << 16) | (std::uint32_t{c.g} << 8) | std::uint32_t{c.b});
+    const std::uint32_t rgb = (std::uint32_t{c.r} << 16) | (std::uint32_t{c.g} << 8) | std::uint32_t{c.b};
+    if (!binary) {
+      bytes += fmt::format("{:.6f} {:.6f} {:.6f} {} {} {} {} {}\n", p[0], p[1], p[2], n.x(), n.y(), n.z(), rgb,
+                           points.intensities[i]);
+      continue;
+    }
+    for (const double coordinate : p) appendRaw(bytes, coordinate);
+    for (int axis = 0; axis < 3; ++axis) appendRaw(bytes, n[axis]);
+    appendRaw(bytes, rgb);
     appendRaw(bytes, points.intensities[i]);
   }
   return writeFileAtomically(path, bytes).ok();
@@ -123,16 +131,18 @@ bool writeCsv(const fs::path& path, const Scan& scan) {
 }
 
 // Binary PLY, LAS, LAZ (LASzip compressor 2, chunks of 50,000 points),
-// binary PCD, CSV and ASCII PLY.
+// binary PCD, CSV, ASCII PLY and ASCII PCD.
 class LargeScanTest : public ::testing::TestWithParam<std::string> {
  protected:
   // The sheet written in the parameter's format (world coordinates in the
   // file but for ASCII PLY, whose apo_origin comment gives them).
   fs::path writeSheet(const Scan& scan) {
-    const fs::path path = test::freshTempDir() / ("sheet." + std::string(GetParam() == "asciiply" ? "ply" : GetParam()));
+    const std::string extension = GetParam() == "asciiply" ? "ply" : GetParam() == "asciipcd" ? "pcd" : GetParam();
+    const fs::path path = test::freshTempDir() / ("sheet." + extension);
     const bool written = GetParam() == "ply"        ? writePly(path, scan, /*worldCoordinates=*/true).ok()
                          : GetParam() == "asciiply" ? writePlyAscii(path, scan).ok()
-                         : GetParam() == "pcd" ? writeBinaryPcd(path, scan)
+                         : GetParam() == "pcd" ? writePcd(path, scan, /*binary=*/true)
+                         : GetParam() == "asciipcd" ? writePcd(path, scan, /*binary=*/false)
                          : GetParam() == "csv" ? writeCsv(path, scan)
                                                : writeLas(path, scan, /*compressed=*/GetParam() == "laz").ok();
     EXPECT_TRUE(written);
@@ -199,7 +209,7 @@ TEST_P(LargeScanTest, CentroidsAreEveryPointGroupedAtTheFinestVoxelWithinTheLimi
   }
   ASSERT_EQ(subsample->scan.points.colors.size(), voxels.size());
   // A PCD's VIEWPOINT comes with the centroids, in their frame.
-  if (GetParam() == "pcd") {
+  if (GetParam() == "pcd" || GetParam() == "asciipcd") {
     ASSERT_TRUE(subsample->scan.viewpoint.has_value());
     for (int axis = 0; axis < 3; ++axis)
       EXPECT_NEAR(subsample->scan.origin[axis] + subsample->scan.viewpoint->origin[axis], kSheetSensor[axis], 1e-3);
@@ -235,12 +245,13 @@ TEST_P(LargeScanTest, TruncatedFileIsRefusedWithItsByte) {
   const char* expected = GetParam() == "laz"   ? "LAZ chunk"
                          : GetParam() == "csv" ? "line 3002: expected 10 columns"  // the cut line: a header, a comment, a blank, 2999 points
                          : GetParam() == "asciiply" ? "line 3015: the file ends after 2999 of the 3000 points"  // 16 header lines
+                         : GetParam() == "asciipcd" ? "line 3010: the file ends after 2999 of the 3000 points"  // 11 header lines
                                                : "the file ends inside point record";
   const bool named = subsample.error().message.find(expected) != std::string::npos;
   EXPECT_TRUE(named) << subsample.error().message;
 }
 
-INSTANTIATE_TEST_SUITE_P(Formats, LargeScanTest, ::testing::Values("ply", "las", "laz", "pcd", "csv", "asciiply"),
+INSTANTIATE_TEST_SUITE_P(Formats, LargeScanTest, ::testing::Values("ply", "las", "laz", "pcd", "csv", "asciiply", "asciipcd"),
                          [](const auto& info) { return info.param; });
 
 TEST(LargeScan, PlyMeshesAreReadWhole) {
@@ -284,56 +295,39 @@ TEST(LargeScan, AsciiPlyRunsAreCheckedAgainstTheHeadersCount) {
             std::string::npos);
 }
 
-// An ASCII PCD, and an organised one (its grid is triangulated whole), are
-// read whole; the same points binary in one row are read in runs.
-TEST(LargeScan, AsciiAndOrganisedPcdsAreReadWhole) {
+// An organised PCD (its grid is triangulated whole) and a compressed one
+// are read whole; the same points in one row, binary or ASCII, in runs.
+TEST(LargeScan, OrganisedAndCompressedPcdsAreReadWhole) {
   const fs::path dir = test::freshTempDir();
   const std::string head = "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n";
   std::string records;
   for (int i = 0; i < 4; ++i)
     for (const float v : {static_cast<float>(i), 1.0f, 2.0f}) appendRaw(records, v);
-  test::writeBytes(dir / "ascii.pcd", head + "WIDTH 2\nHEIGHT 1\nPOINTS 2\nDATA ascii\n0 1 2\n1 1 2\n");
+  test::writeBytes(dir / "ascii.pcd", head + "WIDTH 4\nHEIGHT 1\nPOINTS 4\nDATA ascii\n0 1 2\n1 1 2\n2 1 2\n3 1 2\n");
   test::writeBytes(dir / "organised.pcd", head + "WIDTH 2\nHEIGHT 2\nPOINTS 4\nDATA binary\n" + records);
+  test::writeBytes(dir / "organised-ascii.pcd", head + "WIDTH 2\nHEIGHT 2\nPOINTS 4\nDATA ascii\n0 1 2\n1 1 2\n2 1 2\n3 1 2\n");
+  test::writeBytes(dir / "compressed.pcd", head + "WIDTH 4\nHEIGHT 1\nPOINTS 4\nDATA binary_compressed\n");
   test::writeBytes(dir / "row.pcd", head + "WIDTH 4\nHEIGHT 1\nPOINTS 4\nDATA binary\n" + records);
-  for (const char* name : {"ascii.pcd", "organised.pcd", "row.pcd"}) {
+  for (const std::string name : {"ascii.pcd", "organised.pcd", "organised-ascii.pcd", "compressed.pcd", "row.pcd"}) {
     auto file = large_scan::openPointRuns(dir / name, ScanFormat::Pcd, 0);
     ASSERT_TRUE(file.ok()) << file.error().message;
-    EXPECT_EQ(file->has_value(), std::string(name) == "row.pcd") << name;
+    EXPECT_EQ(file->has_value(), name == "row.pcd" || name == "ascii.pcd") << name;
   }
 }
 
-// XYZ text: the first data line, which decides the layout when no header
-// names the columns, is the first point of the first run; a bad token in a
-// later run is named by the file's line; a file too small to hold more than
-// the limit is read whole without counting its lines.
-TEST(LargeScan, XyzRunsKeepEveryPointAndTheFilesLineNumbers) {
+// An ASCII PCD's bad value in a later run names the file's line and point.
+TEST(LargeScan, AsciiPcdRunsNameTheFilesLineAndPoint) {
   const fs::path dir = test::freshTempDir();
-  std::string text = "5000\n";  // a PTS point count
-  for (int i = 0; i < 5000; ++i) text += fmt::format("{} {} {}\r\n", i, i % 7, 0.5 * i);
-  test::writeBytes(dir / "a.pts", text);
-  auto file = large_scan::openPointRuns(dir / "a.pts", ScanFormat::Xyz, 0);
+  std::string text = "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 3000\nHEIGHT 1\n"
+                     "POINTS 3000\nDATA ascii\n";  // 9 lines
+  for (int i = 0; i < 3000; ++i) text += fmt::format("{} {} 1\n", i == 2500 ? std::string("2q00") : std::to_string(i), i % 5);
+  test::writeBytes(dir / "bad.pcd", text);
+  auto file = large_scan::openPointRuns(dir / "bad.pcd", ScanFormat::Pcd, 0);
   ASSERT_TRUE(file.ok() && file->has_value());
-  EXPECT_EQ((*file)->count, 5000u);
-  std::vector<double> xs;
-  auto read = (*file)->read(1200, [&](Scan& run) {
-    for (std::size_t i = 0; i < run.points.size(); ++i) xs.push_back(world(run, i)[0]);
-  });
-  ASSERT_TRUE(read.ok()) << read.error().message;
-  ASSERT_EQ(xs.size(), 5000u);
-  for (int i = 0; i < 5000; ++i) ASSERT_NEAR(xs[i], i, 1e-3);
-
-  text.replace(text.find("4321 "), 4, "4x21");  // line 4323: the count line, then points 0..4321
-  test::writeBytes(dir / "bad.pts", text);
-  auto bad = large_scan::openPointRuns(dir / "bad.pts", ScanFormat::Xyz, 0);
-  ASSERT_TRUE(bad.ok() && bad->has_value());
-  auto failed = (*bad)->read(1200, [](Scan&) {});
-  ASSERT_FALSE(failed.ok());
-  EXPECT_NE(failed.error().message.find("line 4323: non-numeric token '4x21'"), std::string::npos)
-      << failed.error().message;
-
-  auto small = large_scan::openPointRuns(dir / "a.pts", ScanFormat::Xyz, text.size() / 6);
-  ASSERT_TRUE(small.ok());
-  EXPECT_FALSE(small->has_value());
+  auto read = (*file)->read(1000, [](Scan&) {});
+  ASSERT_FALSE(read.ok());
+  EXPECT_NE(read.error().message.find("line 2510: non-numeric token '2q00' in point 2500"), std::string::npos)
+      << read.error().message;
 }
 
 // A coordinate of 10^38 (a corrupt file) after the first points has no voxel
