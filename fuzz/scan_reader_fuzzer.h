@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <optional>
 #include <string_view>
 
 namespace apo::fuzz {
@@ -38,6 +39,28 @@ int fuzzReader(Reader read, const std::uint8_t* data, std::size_t size) {
     checkConsistent(read(std::string_view(reinterpret_cast<const char*>(data), size)));
   } catch (const parse::ParseFailure&) {
     // Refused with a message: what bad input must get.
+  }
+  return 0;
+}
+
+// A text format's run path (readers.h, TextLayout): the input split at its
+// head, its lines read as one run holding the header's count (or its data
+// lines), as a file above --max-scan-points is read.
+template <class Layout, class IsDataLine, class ReadLines>
+int fuzzTextRuns(Layout layoutOf, IsDataLine isDataLine, ReadLines readLines, const std::uint8_t* data,
+                 std::size_t size) {
+  const std::string_view text(reinterpret_cast<const char*>(data), size);
+  const std::optional<readers::TextLayout> layout = layoutOf(text);
+  if (!layout) return 0;
+  const std::string_view lines = text.substr(layout->dataBytes);
+  std::uint64_t points = layout->count;
+  if (points == 0) {
+    parse::TextCursor cursor(lines);
+    for (std::string_view line; cursor.next(line);) points += isDataLine(line) ? 1 : 0;
+  }
+  try {
+    checkConsistent(readLines(text.substr(0, layout->headBytes), lines, {layout->linesBefore, 0, points}));
+  } catch (const parse::ParseFailure&) {
   }
   return 0;
 }
