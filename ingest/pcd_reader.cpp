@@ -640,6 +640,12 @@ Viewpoint inLocalFrame(const FileViewpoint& viewpoint, const std::array<double, 
   return local;
 }
 
+// The scan's positions into its local frame, and its viewpoint into that frame.
+void finishScan(const Header& header, Body& body, Scan& scan) {
+  body.positions.finishInto(scan);
+  if (header.viewpoint) scan.viewpoint = inLocalFrame(*header.viewpoint, scan.origin);
+}
+
 // The header with the grid and the count of one row of `count` points:
 // WIDTH and POINTS set to it, HEIGHT to 1, every other line as it was.
 std::string headerWithPointCount(std::string_view header, std::uint64_t count) {
@@ -700,8 +706,7 @@ Scan readPcdLines(std::string_view head, std::string_view lines, const TextRun& 
   Body body{{}, scan.points};
   parse::TextCursor cursor(lines, static_cast<std::size_t>(run.linesBefore));
   readAsciiBody(cursor, lines.size(), header, body, run.pointsBefore);
-  body.positions.finishInto(scan);
-  if (header.viewpoint) scan.viewpoint = inLocalFrame(*header.viewpoint, scan.origin);
+  finishScan(header, body, scan);
   return scan;
 }
 
@@ -724,8 +729,7 @@ Scan readPcd(std::string_view bytes) {
     case Encoding::Binary: readBinaryBody(bytes, cursor.offset(), header, body); break;
     case Encoding::BinaryCompressed: readCompressedBody(bytes, cursor.offset(), header, body); break;
   }
-  body.positions.finishInto(scan);
-  if (header.viewpoint) scan.viewpoint = inLocalFrame(*header.viewpoint, scan.origin);
+  finishScan(header, body, scan);
   return scan;
 }
 
