@@ -434,7 +434,7 @@ Result<std::optional<PointRuns>> openPointRuns(const fs::path& path, ScanFormat 
   if (!records && !text) return std::optional<PointRuns>();
   auto head = readFileRange(path, 0, kHeadBytes);
   if (!head) return head.error();
-  if (format == ScanFormat::Xyz) return openTextRuns(path, std::move(*head), *text, maxPoints);
+  if (!records) return openTextRuns(path, std::move(*head), *text, maxPoints);
   if (format == ScanFormat::Las)
     if (const auto count = readers::lazPointCount(*head)) return std::optional<PointRuns>(lazRuns(path, *count));
   const auto layout = records->layout(*head);

@@ -386,19 +386,25 @@ Vec3f planeNormal(const Vec3f& point, const std::vector<Vec3f>& points, const st
   return normal;
 }
 
+// Each point's line of sight: the unit vector to its sensor.
+std::vector<Vec3f> unitSights(const std::vector<Vec3f>& points, const Sensors& sensors) {
+  std::vector<Vec3f> sights(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) sights[i] = (sensors.of(i) - points[i]).normalized();
+  return sights;
+}
+
 // The first `others` graph neighbours of point i seen from its side: those
 // whose line of sight (from the neighbour to its own sensor) is within
 // kOtherSide of point i's. Where a part is thinner than the neighbourhood,
 // scans taken from opposite sides each see one face; the other face's
 // points, seen from the other side, would tilt the plane. All of them when
 // fewer than kMinSameSide remain.
-std::size_t sameSideNeighbours(std::size_t i, const std::vector<Vec3f>& points, const flann_adapter::NeighbourGraph& graph,
-                               std::size_t others, const Sensors& sensors, std::vector<std::uint32_t>& kept) {
+std::size_t sameSideNeighbours(std::size_t i, const flann_adapter::NeighbourGraph& graph, std::size_t others,
+                               const std::vector<Vec3f>& sights, std::vector<std::uint32_t>& kept) {
   const std::uint32_t* row = &graph.neighbours[i * graph.k];
-  const Vec3f sight = (sensors.of(i) - points[i]).normalized();
   kept.clear();
   for (std::size_t j = 0; j < others; ++j)
-    if ((sensors.of(row[j]) - points[row[j]]).normalized().dot(sight) >= kOtherSide) kept.push_back(row[j]);
+    if (sights[row[j]].dot(sights[i]) >= kOtherSide) kept.push_back(row[j]);
   if (kept.size() >= kMinSameSide) return kept.size();
   kept.assign(row, row + others);
   return others;
@@ -414,11 +420,12 @@ std::vector<Vec3f> pcaNormals(const std::vector<Vec3f>& points, const flann_adap
   // Without sensors the propagation decides; the origin only makes the
   // starting signs reproducible.
   const Sensors towards = sensors ? *sensors : Sensors::single(Vec3f::Zero());
+  const std::vector<Vec3f> sights = sensors ? unitSights(points, *sensors) : std::vector<Vec3f>();
   std::vector<Vec3f> normals(points.size());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 4096), [&](const auto& range) {
     std::vector<std::uint32_t> kept;
     for (std::size_t i = range.begin(); i < range.end(); ++i) {
-      const std::size_t count = sensors ? sameSideNeighbours(i, points, graph, others, *sensors, kept) : others;
+      const std::size_t count = sensors ? sameSideNeighbours(i, graph, others, sights, kept) : others;
       const std::uint32_t* fitted = sensors ? kept.data() : &graph.neighbours[i * graph.k];
       normals[i] = planeNormal(points[i], points, fitted, count, towards.of(i));
     }

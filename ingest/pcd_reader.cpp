@@ -668,33 +668,34 @@ std::string headerWithPointCount(std::string_view header, std::uint64_t count) {
   return rewritten;
 }
 
+// The header of a PCD of one row, and the cursor just after it; nullopt when
+// it does not parse (the whole file's read then says what is wrong) or the
+// cloud is organised (its grid is triangulated whole: docs/ingest.md).
+std::optional<std::pair<Header, parse::TextCursor>> oneRowHeader(std::string_view head) {
+  parse::TextCursor cursor(head);
+  Header header;
+  try {
+    header = HeaderReader(cursor).read();
+  } catch (const parse::ParseFailure&) {
+    return std::nullopt;
+  }
+  if (header.height > 1) return std::nullopt;
+  return std::pair{std::move(header), cursor};
+}
+
 }  // namespace
 
 std::optional<RecordLayout> pcdRecordLayout(std::string_view head) {
-  Header header;
-  std::uint64_t recordsAt = 0;
-  try {
-    parse::TextCursor cursor(head);
-    header = HeaderReader(cursor).read();
-    recordsAt = cursor.offset();
-  } catch (const parse::ParseFailure&) {
-    return std::nullopt;  // the whole file's read says what is wrong
-  }
-  // An organised cloud's grid is triangulated whole (docs/ingest.md).
-  if (header.encoding != Encoding::Binary || header.height > 1) return std::nullopt;
-  return RecordLayout{header.points, recordsAt, header.recordSize};
+  const auto found = oneRowHeader(head);
+  if (!found || found->first.encoding != Encoding::Binary) return std::nullopt;
+  const auto& [header, cursor] = *found;
+  return RecordLayout{header.points, cursor.offset(), header.recordSize};
 }
 
 std::optional<TextLayout> pcdTextLayout(std::string_view head) {
-  Header header;
-  parse::TextCursor cursor(head);
-  try {
-    header = HeaderReader(cursor).read();
-  } catch (const parse::ParseFailure&) {
-    return std::nullopt;  // the whole file's read says what is wrong
-  }
-  // An organised cloud's grid is triangulated whole (docs/ingest.md).
-  if (header.encoding != Encoding::Ascii || header.height > 1) return std::nullopt;
+  const auto found = oneRowHeader(head);
+  if (!found || found->first.encoding != Encoding::Ascii) return std::nullopt;
+  const auto& [header, cursor] = *found;
   return TextLayout{header.points, cursor.offset(), cursor.offset(), cursor.lineNumber()};
 }
 
