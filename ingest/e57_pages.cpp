@@ -61,10 +61,12 @@ std::uint32_t crc32c(std::string_view bytes) {
   return crc ^ 0xFFFFFFFF;
 }
 
-void checkPages(std::string_view file) {
+void checkPages(std::string_view file, const std::function<void(std::uint64_t checked)>& progress) {
   if (file.size() % kPageSize != 0)
     fail("byte {}: the file's size is not a whole number of {}-byte E57 pages (truncated?)", file.size(), kPageSize);
+  constexpr std::uint64_t kProgressPages = 16384;  // 16 MiB
   for (std::uint64_t page = 0; page < file.size() / kPageSize; ++page) {
+    if (progress && page > 0 && page % kProgressPages == 0) progress(page * kPageSize);
     const std::uint32_t stored = storedCrc(file, page), computed = pageCrc(file, page);
     if (stored != computed)
       fail(

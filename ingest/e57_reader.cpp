@@ -11,8 +11,11 @@
 // header and the XML section (parsed with pugixml), then each scan's
 // compressed vector section, its packets and bit streams (e57_format.h).
 // The records are decoded twice, a packet at a time: once for the local
-// frame (LocalFrame), once into the Scan's floats; holding every position
-// in double instead would cost more than decoding them again.
+// frame (LocalFrame), the counts and the grids' sizes, once into the Scan's
+// floats; holding every position in double instead would cost more than
+// decoding them again. The second pass hands its points on in runs
+// (readE57Runs), so that a file larger than memory is read through; the
+// whole read is one run.
 // Every offset and count the file claims is checked against its size before
 // anything is allocated for it; errors name the byte offset or the XML
 // element's path (/data3D/0/points/prototype/cartesianX).
@@ -32,6 +35,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <functional>
 #include <limits>
 #include <optional>
 #include <set>
@@ -754,17 +758,28 @@ std::string describeLimits(const std::optional<std::array<double, 2>>& limits) {
 // A scan as the first pass found it.
 struct ScanTally {
   std::uint64_t valid = 0, directionOnly = 0, invalid = 0, outsideBounds = 0;
+  std::uint32_t rows = 0, columns = 0;  // the valid points' grid: largest index + 1
 };
 
-// First pass: the valid records' positions into the frame, the others counted.
+// Records decoded between the times the first pass lets the file's pages go.
+constexpr std::size_t kGiveBackRecords = std::size_t{1} << 20;
+
+// First pass: the valid records' positions into the frame, the others
+// counted, the grid's size found.
 ScanTally measureScan(const PagedFile& file, const ScanHeader& scan, const Section& section, const ScanPlan& plan,
-                      LocalFrame& frame) {
+                      LocalFrame& frame, const std::function<void()>& giveBack) {
   std::vector<Role> roles(plan.coordinates.begin(), plan.coordinates.end());
   roles.push_back(plan.invalidRole);
+  if (plan.hasGrid) roles.insert(roles.end(), {Role::Row, Role::Column});
   RecordReader reader(file, scan, section, decodedFields(scan, plan, roles));
   const int invalidField = plan.index[plan.invalidRole];
   ScanTally tally;
+  std::size_t sinceGiveBack = 0;
   while (const std::size_t count = reader.next()) {
+    if ((sinceGiveBack += count) >= kGiveBackRecords) {
+      giveBack();
+      sinceGiveBack = 0;
+    }
     const double* a = reader.values(plan.index[plan.coordinates[0]]);
     const double* b = reader.values(plan.index[plan.coordinates[1]]);
     const double* c = reader.values(plan.index[plan.coordinates[2]]);
@@ -780,6 +795,12 @@ ScanTally measureScan(const PagedFile& file, const ScanHeader& scan, const Secti
       const auto world = posed(scan.pose, local);
       frame.include(world[0], world[1], world[2]);
       ++tally.valid;
+      if (plan.hasGrid) {
+        // planScan held row and column to [0, 2^32).
+        tally.rows = std::max(tally.rows, static_cast<std::uint32_t>(reader.values(plan.index[Role::Row])[i]) + 1);
+        tally.columns =
+            std::max(tally.columns, static_cast<std::uint32_t>(reader.values(plan.index[Role::Column])[i]) + 1);
+      }
     }
   }
   return tally;
@@ -792,9 +813,13 @@ void catchUp(std::vector<T>& values, std::size_t size) {
   if (values.size() < size) values.resize(size, T{});
 }
 
-// Second pass: the valid records into the Scan, in the frame.
+// Second pass: the valid records into `run`, in the frame; `emit` is called
+// whenever the run holds `runPoints` points (it hands the run on and empties
+// it), so that a run may end inside a scan and hold the end of one and the
+// start of the next.
 void decodeScan(const PagedFile& file, const ScanHeader& scan, const Section& section, const ScanPlan& plan,
-                const LocalFrame& frame, std::uint16_t station, std::size_t reserve, Scan& out) {
+                const LocalFrame& frame, std::uint16_t station, std::uint64_t runPoints,
+                const std::function<void()>& emit, Scan& run) {
   const FieldIndex& index = plan.index;
   const Field& intensityField = scan.fields[std::max(index[Role::Intensity], 0)];
   const LinearMap intensityMap =
@@ -804,28 +829,24 @@ void decodeScan(const PagedFile& file, const ScanHeader& scan, const Section& se
   if (plan.hasColor)
     for (int c = 0; c < 3; ++c)
       colorMaps[c] = mapOnto(limitsOf(scan.colorLimits[c], scan.fields[index[colorRoles[c]]]), 255.0);
-  const std::string label = fmt::format("{} ({})", scan.path, scan.name);
-  if (plan.hasIntensity)
-    out.readNotes.push_back(fmt::format("{}: intensities mapped to [0, 1] from their limits {}", label,
-                                        describeLimits(limitsOf(scan.intensityLimits, intensityField))));
-  if (plan.hasColor)
-    out.readNotes.push_back(fmt::format("{}: colours mapped to 0-255 from their limits {}", label,
-                                        describeLimits(limitsOf(scan.colorLimits[0], scan.fields[index[Role::Red]]))));
 
-  PointSet& points = out.points;
-  const std::size_t before = points.size();
-  const auto prepare = [&](auto& values, bool present) {
-    if (!present) return;
-    catchUp(values, before);
-    values.reserve(reserve);
+  PointSet& points = run.points;
+  // Attributes this scan has and the run's earlier points (another scan's)
+  // may not: zeros for those, as completeRun gives the rest.
+  const auto catchUpPresent = [&] {
+    const std::size_t before = points.size();
+    if (plan.hasIntensity) catchUp(points.intensities, before);
+    if (plan.hasColor) catchUp(points.colors, before);
+    if (plan.hasGrid) {
+      catchUp(points.rows, before);
+      catchUp(points.columns, before);
+    }
+    if (plan.hasReturns) {
+      catchUp(points.returnNumbers, before);
+      catchUp(points.returnCounts, before);
+    }
   };
-  prepare(points.intensities, plan.hasIntensity);
-  prepare(points.colors, plan.hasColor);
-  prepare(points.rows, plan.hasGrid);
-  prepare(points.columns, plan.hasGrid);
-  prepare(points.returnNumbers, plan.hasReturns);
-  prepare(points.returnCounts, plan.hasReturns);
-  if (plan.hasNormals) points.normals.reserve(reserve);
+  catchUpPresent();
 
   RecordReader reader(file, scan, section, decodedFields(scan, plan, plan.used));
   const auto values = [&](Role role) { return reader.values(index[role]); };
@@ -865,22 +886,22 @@ void decodeScan(const PagedFile& file, const ScanHeader& scan, const Section& se
                                     static_cast<float>(r[1][0] * nx + r[1][1] * ny + r[1][2] * nz),
                                     static_cast<float>(r[2][0] * nx + r[2][1] * ny + r[2][2] * nz));
       }
+      if (points.size() >= runPoints) emit();
     }
   }
 }
 
 // The scan's station: its pose, its grid's size (from its points' indices,
 // else from its indexBounds) and its count of points.
-ScanStation stationOf(const ScanHeader& scan, const ScanPlan& plan, const PointSet& points, std::size_t first,
-                      std::uint64_t count) {
+ScanStation stationOf(const ScanHeader& scan, const ScanPlan& plan, const ScanTally& tally) {
   ScanStation station;
   station.name = scan.name;
   station.rotationWxyz = scan.pose.rotationWxyz;
   station.hasPose = scan.hasPose;
-  station.pointCount = count;
-  if (plan.hasGrid && count > 0) {
-    station.rowCount = *std::max_element(points.rows.begin() + first, points.rows.end()) + 1;
-    station.columnCount = *std::max_element(points.columns.begin() + first, points.columns.end()) + 1;
+  station.pointCount = tally.valid;
+  if (plan.hasGrid && tally.valid > 0) {
+    station.rowCount = tally.rows;
+    station.columnCount = tally.columns;
   } else if (scan.rowBounds && scan.columnBounds) {
     const auto size = [](double maximum) {
       return maximum >= 0.0 && maximum < 4294967295.0 ? static_cast<std::uint32_t>(maximum) + 1 : 0u;
@@ -893,6 +914,13 @@ ScanStation stationOf(const ScanHeader& scan, const ScanPlan& plan, const PointS
 
 void noteScan(const ScanHeader& scan, const ScanPlan& plan, const ScanTally& tally, std::vector<std::string>& notes) {
   const std::string label = fmt::format("{} ({})", scan.path, scan.name);
+  const FieldIndex& index = plan.index;
+  if (plan.hasIntensity)
+    notes.push_back(fmt::format("{}: intensities mapped to [0, 1] from their limits {}", label,
+                                describeLimits(limitsOf(scan.intensityLimits, scan.fields[index[Role::Intensity]]))));
+  if (plan.hasColor)
+    notes.push_back(fmt::format("{}: colours mapped to 0-255 from their limits {}", label,
+                                describeLimits(limitsOf(scan.colorLimits[0], scan.fields[index[Role::Red]]))));
   if (tally.directionOnly + tally.invalid > 0)
     notes.push_back(fmt::format("{}: {} of {} records skipped as invalid ({} with a direction only, {} invalid)", label,
                                 tally.directionOnly + tally.invalid, scan.recordCount, tally.directionOnly,
@@ -909,33 +937,75 @@ void noteScan(const ScanHeader& scan, const ScanPlan& plan, const ScanTally& tal
     notes.push_back(fmt::format("{}: elements not read: {}", label, fmt::join(scan.unread, ", ")));
 }
 
-// Attributes that only some scans have: zeros for the others' points (or,
-// for normals, which have no neutral value, none at all), said in a note.
-void fillMissingAttributes(const std::vector<ScanHeader>& scans, const std::vector<ScanPlan>& plans, Scan& out) {
-  PointSet& points = out.points;
-  const auto without = [&](bool ScanPlan::*has) {
-    std::vector<std::string> labels;
-    for (std::size_t s = 0; s < scans.size(); ++s)
-      if (!(plans[s].*has)) labels.push_back(fmt::format("{} ({})", scans[s].path, scans[s].name));
-    return labels;
+// The per-point attributes every run carries: those any scan with points
+// has (zeros for the other scans' points), and normals only when every scan
+// has them (they have no neutral value).
+struct FileAttributes {
+  bool intensity = false, color = false, grid = false, returns = false, normals = false;
+};
+
+// The attributes, and a note for each that some scans lack.
+FileAttributes attributesOf(const std::vector<ScanHeader>& scans, const std::vector<ScanPlan>& plans,
+                            const std::vector<ScanTally>& tallies, std::vector<std::string>& notes) {
+  const auto decide = [&](bool ScanPlan::*has, const char* what) {
+    std::vector<std::string> lacking;
+    bool any = false;
+    for (std::size_t s = 0; s < scans.size(); ++s) {
+      if (plans[s].*has)
+        any |= tallies[s].valid > 0;
+      else
+        lacking.push_back(fmt::format("{} ({})", scans[s].path, scans[s].name));
+    }
+    if (any && !lacking.empty())
+      notes.push_back(has == &ScanPlan::hasNormals
+                          ? fmt::format("normals dropped: {} have none", fmt::join(lacking, ", "))
+                          : fmt::format("{} missing in {}: 0 for their points", what, fmt::join(lacking, ", ")));
+    return std::pair{any, lacking.empty()};
   };
-  const auto fill = [&](auto& values, bool ScanPlan::*has, const char* what) {
-    const std::vector<std::string> lacking = without(has);
-    if (values.empty() || lacking.empty()) return;
-    catchUp(values, points.size());
-    out.readNotes.push_back(fmt::format("{} missing in {}: 0 for their points", what, fmt::join(lacking, ", ")));
-  };
-  fill(points.intensities, &ScanPlan::hasIntensity, "intensity");
-  fill(points.colors, &ScanPlan::hasColor, "colour");
-  fill(points.rows, &ScanPlan::hasGrid, "row and column indices");
-  catchUp(points.columns, points.rows.size());
-  fill(points.returnNumbers, &ScanPlan::hasReturns, "return numbers");
-  catchUp(points.returnCounts, points.returnNumbers.size());
-  const std::vector<std::string> withoutNormals = without(&ScanPlan::hasNormals);
-  if (points.hasNormals() && !withoutNormals.empty()) {
-    points.normals.clear();
-    out.readNotes.push_back(fmt::format("normals dropped: {} have none", fmt::join(withoutNormals, ", ")));
+  FileAttributes attributes;
+  attributes.intensity = decide(&ScanPlan::hasIntensity, "intensity").first;
+  attributes.color = decide(&ScanPlan::hasColor, "colour").first;
+  attributes.grid = decide(&ScanPlan::hasGrid, "row and column indices").first;
+  attributes.returns = decide(&ScanPlan::hasReturns, "return numbers").first;
+  const auto [normals, everyScan] = decide(&ScanPlan::hasNormals, "normals");
+  attributes.normals = normals && everyScan;
+  return attributes;
+}
+
+// Room for `count` points with the file's attributes: the whole read holds
+// each array once, not grown by doubling.
+void reserveRun(const FileAttributes& attributes, std::size_t count, PointSet& points) {
+  points.positions.reserve(count);
+  points.stations.reserve(count);
+  if (attributes.intensity) points.intensities.reserve(count);
+  if (attributes.color) points.colors.reserve(count);
+  if (attributes.grid) {
+    points.rows.reserve(count);
+    points.columns.reserve(count);
   }
+  if (attributes.returns) {
+    points.returnNumbers.reserve(count);
+    points.returnCounts.reserve(count);
+  }
+  if (attributes.normals) points.normals.reserve(count);
+}
+
+// Every one of the file's attributes for each of the run's points.
+void completeRun(const FileAttributes& attributes, PointSet& points) {
+  const std::size_t size = points.size();
+  const auto complete = [&](auto& values, bool present) {
+    if (present)
+      catchUp(values, size);
+    else
+      values.clear();
+  };
+  complete(points.intensities, attributes.intensity);
+  complete(points.colors, attributes.color);
+  complete(points.rows, attributes.grid);
+  complete(points.columns, attributes.grid);
+  complete(points.returnNumbers, attributes.returns);
+  complete(points.returnCounts, attributes.returns);
+  if (!attributes.normals) points.normals.clear();
 }
 
 // ---------------------------------------------------------------- root
@@ -999,12 +1069,18 @@ void checkTotalRecords(const PagedFile& file, const std::vector<ScanHeader>& sca
   }
 }
 
-Scan readScans(std::string_view bytes) {
-  const FileHeader header = parseFileHeader(bytes);
-  e57::checkPages(bytes);
-  const PagedFile file(bytes);
-  std::string xmlText;
-  pugi::xml_document document;
+// The file's scans as /data3D describes them, each with its plan and its
+// section; the XML document lives in `xmlText` and `document`.
+struct Description {
+  std::vector<ScanHeader> scans;
+  std::vector<ScanPlan> plans;
+  std::vector<Section> sections;
+  std::vector<std::string> notes;      // the scans' (their poses')
+  std::vector<std::string> rootNotes;  // what the root holds that apo does not read
+};
+
+Description describe(const PagedFile& file, const FileHeader& header, std::string& xmlText,
+                     pugi::xml_document& document) {
   parseXml(file, header, xmlText, document);
   const Node root{document.child("e57Root"), ""};
   if (!root) fail("XML element /e57Root: missing: the XML section is not an E57 description");
@@ -1014,56 +1090,87 @@ Scan readScans(std::string_view bytes) {
   if (nodes.size() > std::numeric_limits<std::uint16_t>::max())
     fail("XML element /data3D: {} scans: apo reads at most {}", nodes.size(),
          std::numeric_limits<std::uint16_t>::max());
-
-  Scan out;
-  std::vector<ScanHeader> scans;
-  std::vector<ScanPlan> plans;
-  std::vector<Section> sections;
+  Description description;
   for (const Node& node : nodes) {
-    scans.push_back(parseScanHeader(node, out.readNotes));
-    plans.push_back(planScan(scans.back()));
-    sections.push_back(locateSection(file, scans.back()));
+    description.scans.push_back(parseScanHeader(node, description.notes));
+    description.plans.push_back(planScan(description.scans.back()));
+    description.sections.push_back(locateSection(file, description.scans.back()));
   }
-  checkTotalRecords(file, scans);
-  // First pass: the frame, and how many points there are.
+  checkTotalRecords(file, description.scans);
+  noteUnreadRoot(root, description.rootNotes);
+  return description;
+}
+
+// The whole read, a run of `runPoints` points at a time: the pages' CRCs,
+// the XML, a first pass over every record for the frame, the counts and the
+// grids' sizes, then a second pass handing each run to `take` with the
+// file's frame, its stations and every read note. `giveBack` is called every
+// so often: the pages read so far are not needed again soon.
+void readScanRuns(std::string_view bytes, std::uint64_t runPoints, const std::function<void(Scan& run)>& take,
+                  const std::function<void()>& giveBack) {
+  const FileHeader header = parseFileHeader(bytes);
+  e57::checkPages(bytes, [&](std::uint64_t) { giveBack(); });
+  const PagedFile file(bytes);
+  std::string xmlText;
+  pugi::xml_document document;
+  const Description description = describe(file, header, xmlText, document);
+  const std::vector<ScanHeader>& scans = description.scans;
+  const std::vector<ScanPlan>& plans = description.plans;
+
+  // First pass: the frame, how many points there are, the grids' sizes.
+  Scan run;  // every run's frame, stations and notes; then its points
+  run.readNotes = description.notes;
   LocalFrame frame;
   std::vector<ScanTally> tallies;
   std::uint64_t valid = 0, records = 0;
   for (std::size_t s = 0; s < scans.size(); ++s) {
-    tallies.push_back(measureScan(file, scans[s], sections[s], plans[s], frame));
+    tallies.push_back(measureScan(file, scans[s], description.sections[s], plans[s], frame, giveBack));
     valid += tallies.back().valid;
     records += scans[s].recordCount;
   }
   if (valid == 0) fail("no points: {} records in {}, none valid", records, scansWord(scans.size()));
-  frame.fixInto(out);
-  // Second pass: the points.
-  out.points.positions.reserve(valid);
-  out.points.stations.reserve(valid);
+  frame.fixInto(run);
   for (std::size_t s = 0; s < scans.size(); ++s) {
-    const std::size_t first = out.points.size();
-    decodeScan(file, scans[s], sections[s], plans[s], frame, static_cast<std::uint16_t>(s), first + tallies[s].valid,
-               out);
-    ScanStation station = stationOf(scans[s], plans[s], out.points, first, tallies[s].valid);
+    ScanStation station = stationOf(scans[s], plans[s], tallies[s]);
     // Stations in the same local frame as the points.
     for (int axis = 0; axis < 3; ++axis)
-      station.position[axis] = static_cast<float>(scans[s].pose.translation[axis] - out.origin[axis]);
-    out.stations.push_back(station);
-    noteScan(scans[s], plans[s], tallies[s], out.readNotes);
+      station.position[axis] = static_cast<float>(scans[s].pose.translation[axis] - run.origin[axis]);
+    run.stations.push_back(station);
+    noteScan(scans[s], plans[s], tallies[s], run.readNotes);
   }
-  fillMissingAttributes(scans, plans, out);
-  noteUnreadRoot(root, out.readNotes);
+  const FileAttributes attributes = attributesOf(scans, plans, tallies, run.readNotes);
+  run.readNotes.insert(run.readNotes.end(), description.rootNotes.begin(), description.rootNotes.end());
   std::vector<std::uint64_t> counts;
   for (const ScanHeader& scan : scans) counts.push_back(scan.recordCount);
-  out.readNotes.insert(out.readNotes.begin(), fmt::format("E57 {}.{}: {} ({} records)", header.major, header.minor,
+  run.readNotes.insert(run.readNotes.begin(), fmt::format("E57 {}.{}: {} ({} records)", header.major, header.minor,
                                                           scansWord(scans.size()), fmt::join(counts, ", ")));
-  return out;
+
+  // Second pass: the points, a run at a time.
+  std::uint64_t handed = 0;
+  const auto reserveNext = [&] {
+    reserveRun(attributes, static_cast<std::size_t>(std::min(runPoints, valid - handed)), run.points);
+  };
+  reserveNext();
+  const auto emit = [&] {
+    completeRun(attributes, run.points);
+    handed += run.points.size();
+    take(run);
+    run.points = PointSet();
+    if (handed < valid) reserveNext();
+    giveBack();
+  };
+  for (std::size_t s = 0; s < scans.size(); ++s)
+    decodeScan(file, scans[s], description.sections[s], plans[s], frame, static_cast<std::uint16_t>(s), runPoints,
+               emit, run);
+  if (run.points.size() > 0) emit();
 }
 
-}  // namespace
-
-Scan readE57(std::string_view bytes) {
+// Exceptions other than the reader's own failures (a library's) as a
+// refusal of the file.
+template <class Read>
+void refusingOtherErrors(const Read& read) {
   try {
-    return readScans(bytes);
+    read();
   } catch (const parse::ParseFailure&) {
     throw;
   } catch (const std::bad_alloc&) {
@@ -1073,6 +1180,36 @@ Scan readE57(std::string_view bytes) {
     // still a refusal of this file, not a crash.
     fail("the E57 file could not be read: {}", error.what());
   }
+}
+
+}  // namespace
+
+Scan readE57(std::string_view bytes) {
+  Scan whole;
+  refusingOtherErrors([&] {
+    readScanRuns(bytes, std::numeric_limits<std::uint64_t>::max(), [&](Scan& run) { whole = std::move(run); }, [] {});
+  });
+  return whole;
+}
+
+std::optional<std::uint64_t> e57RecordCount(std::string_view file) {
+  std::optional<std::uint64_t> records;
+  try {
+    const PagedFile paged(file);
+    std::string xmlText;
+    pugi::xml_document document;
+    const Description description = describe(paged, parseFileHeader(file), xmlText, document);
+    records = 0;
+    for (const ScanHeader& scan : description.scans) *records += scan.recordCount;
+  } catch (const std::exception&) {
+    return std::nullopt;  // the whole read says why
+  }
+  return records;
+}
+
+void readE57Runs(std::string_view file, std::uint64_t runPoints, const std::function<void(Scan& run)>& take,
+                 const std::function<void()>& giveBack) {
+  refusingOtherErrors([&] { readScanRuns(file, runPoints, take, giveBack); });
 }
 
 }  // namespace apo::readers

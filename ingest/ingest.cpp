@@ -292,6 +292,12 @@ IngestReport::StationGrid triangulateStationGrid(Scan& scan, std::size_t station
 // cells each), or the positions are not believable.
 void triangulateStationGrids(Scan& scan, const IngestOptions& options, IngestReport& report) {
   if (scan.stations.empty() || !scan.points.hasStations()) return;
+  if (!scan.points.hasGridIndices()) {
+    // Voxel centroids (a scan above --max-scan-points) have no grid cells.
+    if (scan.stations.front().rowCount > 0)
+      spdlog::info("ingest: the scans' row/column indices were not kept (read into voxel centroids): scans read as points");
+    return;
+  }
   for (const ScanStation& station : scan.stations) {
     const std::uint64_t cells = std::uint64_t{station.rowCount} * station.columnCount;
     if (cells == 0 || cells > kMaxCellsPerPoint * std::max<std::uint64_t>(station.pointCount, 1)) {
@@ -563,7 +569,8 @@ Result<Scan> readLargeOrWhole(const fs::path& path, ScanFormat format, const Ing
   Scan scan = std::move(subsample->scan);
   scan.readNotes.push_back(fmt::format(
       "{} points read in {} runs into {} voxel centroids (voxel {:g}; --max-scan-points {}); {} with a non-finite "
-      "coordinate dropped; normals, colours and intensities averaged per voxel, other attributes not kept",
+      "coordinate dropped; normals, colours and intensities averaged per voxel, each voxel given the scan position "
+      "of one of its points (the first, or of the larger of two voxels merged); other attributes not kept",
       large.pointsInFile, large.runs, large.kept, large.voxelSize, large.limit, large.nonFinite));
   return scan;
 }

@@ -35,8 +35,13 @@ struct VoxelSums {
   std::array<std::uint64_t, 3> color{};
   double intensity = 0.0;
   std::uint64_t count = 0;
+  // The scan position (multi-scan files) of the voxel's first point; where
+  // voxels merge, that of the one with more points (the earlier on a tie):
+  // a centroid's line of sight to one scanner that saw its surface.
+  std::uint16_t station = 0;
 
   void add(const VoxelSums& other) {
+    if (other.count > count) station = other.station;
     for (int axis = 0; axis < 3; ++axis) {
       position[axis] += other.position[axis];
       normal[axis] += other.normal[axis];
@@ -109,7 +114,7 @@ class Voxels {
 
 // Which attributes the file's points carry (every run has the same).
 struct Attributes {
-  bool normals = false, colors = false, intensities = false;
+  bool normals = false, colors = false, intensities = false, stations = false;
 };
 
 // The run's points in the file's coordinates (double), one by one.
@@ -145,6 +150,7 @@ class VoxelGrid {
         for (int axis = 0; axis < 3; ++axis) sums.normal[axis] = points.normals[i][axis];
       if (attributes_.colors) sums.color = {points.colors[i].r, points.colors[i].g, points.colors[i].b};
       if (attributes_.intensities) sums.intensity = points.intensities[i];
+      if (attributes_.stations) sums.station = points.stations[i];
       voxels_.add(keyOf(p), sums);
       while (voxels_.size() > maxVoxels_) coarsen();
     });
@@ -174,6 +180,7 @@ class VoxelGrid {
         points.colors.push_back({mean(0), mean(1), mean(2)});
       }
       if (attributes_.intensities) points.intensities.push_back(static_cast<float>(s.intensity / n));
+      if (attributes_.stations) points.stations.push_back(s.station);
     }
     positions.finishInto(scan);
     return scan;
@@ -310,6 +317,30 @@ Status forEachLine(const fs::path& path, std::uint64_t from, const std::function
   }
 }
 
+// An E57 file mapped, read twice through (readers::readE57Runs), its pages
+// given back as they are read.
+PointRuns e57Runs(const fs::path& path, std::uint64_t count) {
+  auto read = [path](std::uint64_t runPoints,
+                     const std::function<void(Scan&)>& take) -> Result<std::vector<std::string>> {
+    auto file = MappedFile::open(path);
+    if (!file) return file.error();
+    std::vector<std::string> notes;
+    try {
+      readers::readE57Runs(
+          file->bytes(), runPoints,
+          [&](Scan& run) {
+            if (notes.empty()) notes = run.readNotes;
+            take(run);
+          },
+          [&] { file->release(file->bytes().size()); });
+    } catch (const parse::ParseFailure& failure) {
+      return badInput("{}: {}", path.string(), failure.what());
+    }
+    return notes;
+  };
+  return {path, count, std::move(read)};
+}
+
 // A format whose points are one to a line: its layout from the file's first
 // bytes, which lines hold points, and its reader of a run of lines.
 struct TextFormat {
@@ -429,6 +460,13 @@ int startLevel(const Scan& firstRun, std::uint64_t maxPoints) {
 }  // namespace
 
 Result<std::optional<PointRuns>> openPointRuns(const fs::path& path, ScanFormat format, std::uint64_t maxPoints) {
+  if (format == ScanFormat::E57) {
+    auto file = MappedFile::open(path);
+    if (!file) return file.error();
+    const std::optional<std::uint64_t> count = readers::e57RecordCount(file->bytes());
+    if (!count) return std::optional<PointRuns>();
+    return std::optional<PointRuns>(e57Runs(path, *count));
+  }
   const std::optional<RecordFormat> records = recordFormatOf(format);
   const std::optional<TextFormat> text = textFormatOf(format);
   if (!records && !text) return std::optional<PointRuns>();
@@ -448,16 +486,20 @@ Result<VoxelSubsample> voxelSubsample(const PointRuns& file, std::uint64_t maxPo
                                       const Progress& progress) {
   VoxelSubsample result;
   std::optional<VoxelGrid> grid;
-  // A PCD's VIEWPOINT, in the frame of the first run, whose reader read it.
+  // A PCD's VIEWPOINT or an E57's scan positions, in the frame of the first
+  // run, whose reader read them.
   std::optional<Viewpoint> viewpoint;
-  std::array<double, 3> viewpointFrame{};
+  std::vector<ScanStation> stations;
+  std::array<double, 3> firstFrame{};
   auto notes = file.read(std::max(runPoints, kStartPoints), [&](Scan& run) {
     if (!grid) {
       const PointSet& points = run.points;
       grid.emplace(startLevel(run, maxPoints), maxPoints,
-                   Attributes{!points.normals.empty(), !points.colors.empty(), !points.intensities.empty()});
+                   Attributes{points.hasNormals(), points.hasColors(), points.hasIntensities(),
+                              points.hasStations() && !run.stations.empty()});
       viewpoint = run.viewpoint;
-      viewpointFrame = run.origin;
+      stations = run.stations;
+      firstFrame = run.origin;
     }
     grid->add(run);
     result.pointsRead += run.points.size();
@@ -468,11 +510,17 @@ Result<VoxelSubsample> voxelSubsample(const PointRuns& file, std::uint64_t maxPo
   if (!grid) return badInput("{}: no points", file.path.string());
   result.scan = grid->centroids();
   result.scan.readNotes = std::move(*notes);
-  if (viewpoint) {
+  const auto intoResultFrame = [&](Vec3f& position) {
     for (int axis = 0; axis < 3; ++axis)
-      viewpoint->origin[axis] =
-          static_cast<float>(viewpointFrame[axis] + viewpoint->origin[axis] - result.scan.origin[axis]);
+      position[axis] = static_cast<float>(firstFrame[axis] + position[axis] - result.scan.origin[axis]);
+  };
+  if (viewpoint) {
+    intoResultFrame(viewpoint->origin);
     result.scan.viewpoint = viewpoint;
+  }
+  if (result.scan.points.hasStations()) {
+    for (ScanStation& station : stations) intoResultFrame(station.position);
+    result.scan.stations = std::move(stations);
   }
   result.voxelSize = grid->voxelSize();
   result.nonFinite = grid->nonFinite();

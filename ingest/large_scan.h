@@ -44,9 +44,11 @@ struct PointRuns {
 // uncompressed LAS and binary PCD of one row (runs of records read from disk,
 // each as a file of its own: readers.h, RecordLayout), LAZ (the compressed
 // file mapped, its chunks decompressed a run at a time), ASCII PLY of
-// vertices alone, ASCII PCD of one row, and XYZ/CSV/PTS text that may hold more than `maxPoints` points (its
-// data lines counted in a first pass): runs of whole lines, each read behind
-// the file's head (readers.h, TextLayout); else nullopt.
+// vertices alone, ASCII PCD of one row, and XYZ/CSV/PTS text that may hold
+// more than `maxPoints` points (its data lines counted in a first pass): runs
+// of whole lines, each read behind the file's head (readers.h, TextLayout);
+// E57 (mapped, read twice through: readers::readE57Runs; `count` is the
+// records its XML declares, valid or not); else nullopt.
 Result<std::optional<PointRuns>> openPointRuns(const std::filesystem::path& path, ScanFormat format,
                                                std::uint64_t maxPoints);
 
@@ -54,8 +56,9 @@ Result<std::optional<PointRuns>> openPointRuns(const std::filesystem::path& path
 using Progress = std::function<void(std::uint64_t read, std::uint64_t total)>;
 
 struct VoxelSubsample {
-  Scan scan;                        // the voxels' centroids, in voxel order; the file's first run's read notes
-                                    // and viewpoint (PCD)
+  Scan scan;                        // the voxels' centroids, in voxel order; the file's first run's read notes,
+                                    // viewpoint (PCD) and scan positions (E57), each centroid with
+                                    // the scan position of one of its points (VoxelSums::station)
   double voxelSize = 0.0;           // in the file's units, a power of two
   std::uint64_t pointsRead = 0;     // records read
   std::uint64_t nonFinite = 0;      // of them, dropped for a non-finite coordinate (or one

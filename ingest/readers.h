@@ -27,6 +27,17 @@ std::string lasPointRecords(std::string_view bytes);
 // E57 (ASTM E2807) 1.0: every scan of the file, each a ScanStation, its
 // points moved by its pose into one frame (docs/ingest.md, "E57").
 Scan readE57(std::string_view bytes);
+// The records its /data3D declares (valid or not), from its header and XML
+// alone; nullopt when those do not read (the whole read then says why).
+std::optional<std::uint64_t> e57RecordCount(std::string_view file);
+// The same points as readE57, in order, in runs of `runPoints` (the last may
+// hold fewer; a run may hold the end of one scan and the start of the next),
+// each with the file's frame, stations and read notes and every attribute
+// any scan has. The file is read twice through (readE57's two passes);
+// `giveBack` is called every so often: the bytes read so far are not needed
+// again soon (a mapped file's pages may go). Throws as readE57 does.
+void readE57Runs(std::string_view file, std::uint64_t runPoints, const std::function<void(Scan& run)>& take,
+                 const std::function<void()>& giveBack);
 
 // Files whose points are fixed-size records (binary PLY of vertices alone,
 // uncompressed LAS, binary PCD of one row): a run of their records behind the file's header, its

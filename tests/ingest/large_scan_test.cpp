@@ -21,6 +21,7 @@
 #include <fstream>
 #include <map>
 #include <random>
+#include <set>
 #include <string>
 
 namespace apo {
@@ -131,7 +132,7 @@ bool writeCsv(const fs::path& path, const Scan& scan) {
 }
 
 // Binary PLY, LAS, LAZ (LASzip compressor 2, chunks of 50,000 points),
-// binary PCD, CSV, ASCII PLY and ASCII PCD.
+// binary PCD, CSV, ASCII PLY, ASCII PCD and E57.
 class LargeScanTest : public ::testing::TestWithParam<std::string> {
  protected:
   // The sheet written in the parameter's format (world coordinates in the
@@ -144,6 +145,7 @@ class LargeScanTest : public ::testing::TestWithParam<std::string> {
                          : GetParam() == "pcd" ? writePcd(path, scan, /*binary=*/true)
                          : GetParam() == "asciipcd" ? writePcd(path, scan, /*binary=*/false)
                          : GetParam() == "csv" ? writeCsv(path, scan)
+                         : GetParam() == "e57" ? writeE57(path, scan).ok()
                                                : writeLas(path, scan, /*compressed=*/GetParam() == "laz").ok();
     EXPECT_TRUE(written);
     return path;
@@ -238,6 +240,18 @@ TEST_P(LargeScanTest, TruncatedFileIsRefusedWithItsByte) {
   ASSERT_TRUE(bytes.ok());
   const fs::path cut = path.parent_path() / ("cut" + path.extension().string());
   test::writeBytes(cut, std::string_view(*bytes).substr(0, bytes->size() - 100));
+  if (GetParam() == "e57") {
+    // Its XML, which declares the points, is its last section: read whole,
+    // which refuses it.
+    auto file = large_scan::openPointRuns(cut, ScanFormat::E57, 0);
+    ASSERT_TRUE(file.ok());
+    EXPECT_FALSE(file->has_value());
+    auto whole = readScan(cut);
+    ASSERT_FALSE(whole.ok());
+    EXPECT_NE(whole.error().message.find("byte 16: the header gives the file's length as"), std::string::npos)
+        << whole.error().message;
+    return;
+  }
   auto subsample = large_scan::voxelSubsample(open(cut), 1000, 1000, nullptr);
   ASSERT_FALSE(subsample.ok());
   EXPECT_EQ(subsample.error().kind, ErrorKind::BadInput);
@@ -251,7 +265,8 @@ TEST_P(LargeScanTest, TruncatedFileIsRefusedWithItsByte) {
   EXPECT_TRUE(named) << subsample.error().message;
 }
 
-INSTANTIATE_TEST_SUITE_P(Formats, LargeScanTest, ::testing::Values("ply", "las", "laz", "pcd", "csv", "asciiply", "asciipcd"),
+INSTANTIATE_TEST_SUITE_P(Formats, LargeScanTest,
+                         ::testing::Values("ply", "las", "laz", "pcd", "csv", "asciiply", "asciipcd", "e57"),
                          [](const auto& info) { return info.param; });
 
 TEST(LargeScan, PlyMeshesAreReadWhole) {
@@ -346,6 +361,86 @@ TEST(LargeScan, AFarOutlierIsCountedNotKeyed) {
   EXPECT_EQ(subsample->pointsRead, large_scan::kStartPoints + 2001);
   EXPECT_EQ(subsample->nonFinite, 1u);
   EXPECT_LE(subsample->scan.points.size(), 1000u);
+}
+
+// The sheet as two scans, from two positions above it, each about half of
+// it (split off the voxels' boundaries), without normals.
+Scan twoStationSheet(std::size_t count, std::uint64_t seed) {
+  Scan scan = wavySheet(count, seed);
+  scan.points.normals.clear();
+  for (const char* name : {"west", "east"}) {
+    ScanStation station;
+    station.name = name;
+    station.position = Vec3f(scan.stations.empty() ? -10.0f : 10.0f, 0.0f, 30.0f);
+    station.hasPose = true;
+    scan.stations.push_back(station);
+  }
+  for (const Vec3f& p : scan.points.positions) scan.points.stations.push_back(p.x() < 0.3f ? 0 : 1);
+  return scan;
+}
+
+TEST(LargeScan, E57RunsKeepEveryScanPositionAndEachCentroidOneOfItsPoints) {
+  const Scan sheet = twoStationSheet(80000, 8);
+  const fs::path path = test::freshTempDir() / "stations.e57";
+  ASSERT_TRUE(writeE57(path, sheet).ok());
+  auto whole = readScan(path);
+  ASSERT_TRUE(whole.ok()) << whole.error().message;
+  ASSERT_EQ(whole->stations.size(), 2u);
+  // Runs cut inside the first scan and across the two: the same points, the
+  // same scan of each, the same stations and notes in every run.
+  std::size_t compared = 0;
+  auto notes = open(path).read(30000, [&](Scan& run) {
+    EXPECT_EQ(run.readNotes, whole->readNotes);
+    ASSERT_EQ(run.stations.size(), 2u);
+    ASSERT_EQ(run.points.stations.size(), run.points.size());
+    for (std::size_t i = 0; i < run.points.size(); ++i, ++compared) {
+      ASSERT_EQ(run.points.stations[i], whole->points.stations[compared]) << "point " << compared;
+      ASSERT_EQ(run.points.positions[i], whole->points.positions[compared]) << "point " << compared;
+      ASSERT_EQ(run.points.colors[i], whole->points.colors[compared]) << "point " << compared;
+    }
+  });
+  ASSERT_TRUE(notes.ok()) << notes.error().message;
+  EXPECT_EQ(compared, 80000u);
+  // The centroids keep both positions, in their own frame, and each one the
+  // scan of one of its voxel's points.
+  auto subsample = large_scan::voxelSubsample(open(path), 3000, 7000, nullptr);
+  ASSERT_TRUE(subsample.ok()) << subsample.error().message;
+  const Scan& centroids = subsample->scan;
+  ASSERT_EQ(centroids.stations.size(), 2u);
+  for (std::size_t s = 0; s < 2; ++s) {
+    EXPECT_EQ(centroids.stations[s].name, whole->stations[s].name);
+    for (int axis = 0; axis < 3; ++axis)
+      EXPECT_NEAR(centroids.origin[axis] + centroids.stations[s].position[axis],
+                  whole->origin[axis] + whole->stations[s].position[axis], 1e-3);
+  }
+  std::map<Key, std::set<std::uint16_t>> scansOf;
+  const double size = subsample->voxelSize;
+  for (std::size_t i = 0; i < whole->points.size(); ++i) {
+    const auto p = world(*whole, i);
+    scansOf[{static_cast<std::int64_t>(std::floor(p[0] / size)), static_cast<std::int64_t>(std::floor(p[1] / size)),
+             static_cast<std::int64_t>(std::floor(p[2] / size))}]
+        .insert(whole->points.stations[i]);
+  }
+  ASSERT_EQ(centroids.points.stations.size(), scansOf.size());
+  std::size_t i = 0, mixed = 0;
+  std::array<std::size_t, 2> perScan{};
+  for (const auto& [key, scans] : scansOf) {
+    const std::uint16_t scan = centroids.points.stations[i++];
+    ASSERT_TRUE(scans.count(scan)) << "voxel " << i;
+    ++perScan[scan];
+    mixed += scans.size() > 1;
+  }
+  EXPECT_GT(perScan[0], 500u);
+  EXPECT_GT(perScan[1], 500u);
+  EXPECT_GT(mixed, 0u);  // voxels on the seam hold points of both
+  // Ingest above the limit orients the centroids' normals towards their scans.
+  IngestOptions options;
+  options.maxScanPoints = 3000;
+  auto ingested = ingestScan(path, test::checked(options));
+  ASSERT_TRUE(ingested.ok()) << ingested.error().message;
+  EXPECT_TRUE(ingested->report.largeScan.subsampled);
+  const auto json = nlohmann::json::parse(ingestReportJson(ingested->report));
+  EXPECT_EQ(json["normals"]["orientation"], "scan_positions") << json["normals"].dump();
 }
 
 TEST(LargeScan, IngestReadsAScanAboveTheLimitIntoCentroidsAndSaysSo) {
