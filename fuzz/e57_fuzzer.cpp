@@ -4,7 +4,7 @@
 // inputs stop), and with every page's CRC recomputed first, so that the
 // mutations reach the XML section, the compressed vector sections, the
 // packets and the bit unpacking behind the CRCs. The sealed input is also
-// read in runs of a few points (readE57Runs, as a file above
+// read in runs of 61 points (readE57Runs, as a file above
 // --max-scan-points is read): every run as consistent, as many points in all.
 #include "fuzz/scan_reader_fuzzer.h"
 #include "ingest/e57_pages.h"
@@ -37,7 +37,7 @@ void readInRuns(std::string_view bytes) {
   std::size_t inRuns = 0, whole = 0;
   try {
     apo::readers::readE57Runs(
-        bytes, 5,
+        bytes, 61,
         [&](apo::Scan& run) {
           checkStations(run);
           inRuns += run.points.size();
