@@ -569,9 +569,12 @@ Result<Scan> readLargeOrWhole(const fs::path& path, ScanFormat format, const Ing
   Scan scan = std::move(subsample->scan);
   scan.readNotes.push_back(fmt::format(
       "{} points read in {} runs into {} voxel centroids (voxel {:g}; --max-scan-points {}); {} with a non-finite "
-      "coordinate dropped; normals, colours and intensities averaged per voxel, each voxel given the scan position "
-      "of one of its points (the first, or of the larger of two voxels merged); other attributes not kept",
-      large.pointsInFile, large.runs, large.kept, large.voxelSize, large.limit, large.nonFinite));
+      "coordinate dropped; normals, colours and intensities averaged per voxel{}; other attributes not kept",
+      large.pointsInFile, large.runs, large.kept, large.voxelSize, large.limit, large.nonFinite,
+      scan.points.hasStations()
+          ? ", each voxel given the scan position of one of its points (the first, or where two voxels merged that "
+            "of the larger)"
+          : ""));
   return scan;
 }
 

@@ -263,27 +263,55 @@ PointRuns recordRuns(const fs::path& path, std::string head, const readers::Reco
   return {path, layout.count, std::move(read)};
 }
 
-// A LAZ file mapped, its chunks decompressed a run at a time, each run's
-// compressed bytes given back once decoded.
-PointRuns lazRuns(const fs::path& path, std::uint64_t count) {
-  auto read = [path](std::uint64_t runPoints,
-                     const std::function<void(Scan&)>& take) -> Result<std::vector<std::string>> {
+// A file mapped, its runs read by `readMapped(file, runPoints, take)`,
+// which returns the read notes; its parse failures are the file's BadInput.
+template <class ReadMapped>
+PointRuns mappedRuns(const fs::path& path, std::uint64_t count, ReadMapped readMapped) {
+  auto read = [path, readMapped](std::uint64_t runPoints,
+                                 const std::function<void(Scan&)>& take) -> Result<std::vector<std::string>> {
     auto file = MappedFile::open(path);
     if (!file) return file.error();
-    std::vector<std::string> notes;
     try {
-      const std::string summary = readers::readLazRuns(file->bytes(), runPoints, [&](Scan& run, std::size_t end) {
-        if (notes.empty()) notes = run.readNotes;
-        take(run);
-        file->release(end);
-      });
-      notes.insert(notes.begin(), summary);
+      return readMapped(*file, runPoints, take);
     } catch (const parse::ParseFailure& failure) {
       return badInput("{}: {}", path.string(), failure.what());
     }
-    return notes;
   };
   return {path, count, std::move(read)};
+}
+
+// A LAZ file's chunks decompressed a run at a time, each run's compressed
+// bytes given back once decoded.
+PointRuns lazRuns(const fs::path& path, std::uint64_t count) {
+  return mappedRuns(path, count,
+                    [](const MappedFile& file, std::uint64_t runPoints, const std::function<void(Scan&)>& take) {
+                      std::vector<std::string> notes;
+                      const std::string summary =
+                          readers::readLazRuns(file.bytes(), runPoints, [&](Scan& run, std::size_t end) {
+                            if (notes.empty()) notes = run.readNotes;
+                            take(run);
+                            file.release(end);
+                          });
+                      notes.insert(notes.begin(), summary);
+                      return notes;
+                    });
+}
+
+// An E57 file read twice through (readers::readE57Runs), its pages given
+// back as they are read.
+PointRuns e57Runs(const fs::path& path, std::uint64_t count) {
+  return mappedRuns(path, count,
+                    [](const MappedFile& file, std::uint64_t runPoints, const std::function<void(Scan&)>& take) {
+                      std::vector<std::string> notes;
+                      readers::readE57Runs(
+                          file.bytes(), runPoints,
+                          [&](Scan& run) {
+                            if (notes.empty()) notes = run.readNotes;
+                            take(run);
+                          },
+                          [&] { file.release(file.bytes().size()); });
+                      return notes;
+                    });
 }
 
 // Bytes of a text file read at a time.
@@ -315,30 +343,6 @@ Status forEachLine(const fs::path& path, std::uint64_t from, const std::function
       return okStatus();
     }
   }
-}
-
-// An E57 file mapped, read twice through (readers::readE57Runs), its pages
-// given back as they are read.
-PointRuns e57Runs(const fs::path& path, std::uint64_t count) {
-  auto read = [path](std::uint64_t runPoints,
-                     const std::function<void(Scan&)>& take) -> Result<std::vector<std::string>> {
-    auto file = MappedFile::open(path);
-    if (!file) return file.error();
-    std::vector<std::string> notes;
-    try {
-      readers::readE57Runs(
-          file->bytes(), runPoints,
-          [&](Scan& run) {
-            if (notes.empty()) notes = run.readNotes;
-            take(run);
-          },
-          [&] { file->release(file->bytes().size()); });
-    } catch (const parse::ParseFailure& failure) {
-      return badInput("{}: {}", path.string(), failure.what());
-    }
-    return notes;
-  };
-  return {path, count, std::move(read)};
 }
 
 // A format whose points are one to a line: its layout from the file's first

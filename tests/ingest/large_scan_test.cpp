@@ -14,6 +14,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -441,6 +442,10 @@ TEST(LargeScan, E57RunsKeepEveryScanPositionAndEachCentroidOneOfItsPoints) {
   EXPECT_TRUE(ingested->report.largeScan.subsampled);
   const auto json = nlohmann::json::parse(ingestReportJson(ingested->report));
   EXPECT_EQ(json["normals"]["orientation"], "scan_positions") << json["normals"].dump();
+  const std::vector<std::string>& ingestNotes = ingested->report.readNotes;
+  EXPECT_TRUE(std::any_of(ingestNotes.begin(), ingestNotes.end(), [](const std::string& note) {
+    return note.find("each voxel given the scan position of one of its points") != std::string::npos;
+  }));
 }
 
 TEST(LargeScan, IngestReadsAScanAboveTheLimitIntoCentroidsAndSaysSo) {
