@@ -2,11 +2,12 @@
 # Issue 45 §1: `apo ingest` of a scan above --max-scan-points, format by
 # format, each read a run at a time into voxel centroids (docs/ingest.md,
 # "Large scans"); at --max-scan-points 1000000, so that what is kept weighs
-# little beside the read, and the XYZ text and the E57 also read whole
-# (--max-scan-points 0: what every text file and E57 was before).
+# little beside the read, and the XYZ text, the E57 and the compressed PCD
+# also read whole (--max-scan-points 0: what they were before their runs).
 # The scan: bunny00 by `apo simulate-scan` (8 views, noise and
 # misregistration on), MILLIONS million points (default 20), written as
-# binary PLY, LAS, LAZ and E57 (one scan per view, with its grid), and from those points as XYZ text (x y z, 5
+# binary PLY, LAS, LAZ and E57 (one scan per view, with its grid), as a
+# binary_compressed PCD of x y z (by Open3D, from the PLY), and from those points as XYZ text (x y z, 5
 # decimals) and ASCII PLY (the same lines behind a PLY header), into
 # build/bench_data/ unless there already (not committed). Prints wall
 # seconds and peak MiB (GNU time) of each ingest, with `uptime`'s load
@@ -26,6 +27,10 @@ if [ ! -f "$stem.laz" ]; then
 fi
 if [ ! -f "$stem.e57" ]; then  # the same seed: the same points
   build/apo -q simulate-scan datasets/cgal/meshes/bunny00.off --views 8 --rays "$rays" --e57 "$stem.e57"
+fi
+if [ ! -f "$stem.zpcd.pcd" ]; then
+  /usr/bin/python3 -c "import open3d as o3d, sys; o3d.io.write_point_cloud(sys.argv[2], o3d.io.read_point_cloud(sys.argv[1]), compressed=True)" \
+    "$stem.ply" "$stem.zpcd.pcd"
 fi
 if [ ! -f "$stem.ascii.ply" ]; then
   /usr/bin/python3 - "$stem" <<'EOF'
@@ -60,9 +65,9 @@ EOF
 fi
 echo "load before: $(uptime | sed 's/.*average: //')"
 printf '| file | MB | read | wall s | peak MiB | points in file | kept |\n|---|---|---|---|---|---|---|\n'
-for file in "$stem.ply" "$stem.las" "$stem.laz" "$stem.xyz" "$stem.ascii.ply" "$stem.e57"; do
+for file in "$stem.ply" "$stem.las" "$stem.laz" "$stem.xyz" "$stem.ascii.ply" "$stem.e57" "$stem.zpcd.pcd"; do
   limits=(1000000)
-  [ "$file" != "$stem.xyz" ] && [ "$file" != "$stem.e57" ] || limits+=(0)
+  case "$file" in *.xyz | *.e57 | *.zpcd.pcd) limits+=(0) ;; esac
   for limit in "${limits[@]}"; do
     out=$(mktemp -d)
     args=(--max-scan-points "$limit")

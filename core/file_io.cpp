@@ -130,6 +130,66 @@ void MappedFile::release(std::size_t end) const {
   if (data_ != nullptr && whole > 0) madvise(data_, whole, MADV_DONTNEED);
 }
 
+RawFile::RawFile(std::string what, const fs::path& path, int flags)
+    : what_(std::move(what)), path_(path), fd_(::open(path.c_str(), flags | O_CLOEXEC, 0644)), openError_(errno) {}
+
+Result<RawFile> RawFile::scratch(std::string what, const fs::path& folder) {
+  std::string name = (folder / "apo-scratch-XXXXXX").string();
+  const int fd = ::mkostemp(name.data(), O_CLOEXEC);
+  if (fd < 0) return internalError("cannot make {} in {}: {}", what, folder.string(), std::strerror(errno));
+  ::unlink(name.c_str());
+  return RawFile(std::move(what), name, fd, 0);
+}
+
+RawFile::RawFile(RawFile&& other) noexcept
+    : what_(std::move(other.what_)), path_(std::move(other.path_)), fd_(other.fd_), openError_(other.openError_) {
+  other.fd_ = -1;
+}
+
+RawFile::~RawFile() {
+  if (fd_ >= 0) ::close(fd_);
+}
+
+Status RawFile::opened() const {
+  if (fd_ < 0) return internalError("{} {}: cannot open: {}", what_, path_.string(), std::strerror(openError_));
+  return okStatus();
+}
+
+Status RawFile::write(std::uint64_t offset, const void* data, std::size_t bytes) const {
+  const char* from = static_cast<const char*>(data);
+  while (bytes > 0) {
+    const ssize_t written = ::pwrite(fd_, from, bytes, static_cast<off_t>(offset));
+    if (written < 0 && errno == EINTR) continue;
+    if (written <= 0)
+      return internalError("writing {} {} at byte {}: {}", what_, path_.string(), offset,
+                           written < 0 ? std::strerror(errno) : "nothing written");
+    from += written;
+    offset += static_cast<std::uint64_t>(written);
+    bytes -= static_cast<std::size_t>(written);
+  }
+  return okStatus();
+}
+
+Status RawFile::read(std::uint64_t offset, void* data, std::size_t bytes) const {
+  char* to = static_cast<char*>(data);
+  while (bytes > 0) {
+    const ssize_t got = ::pread(fd_, to, bytes, static_cast<off_t>(offset));
+    if (got < 0 && errno == EINTR) continue;
+    if (got <= 0)
+      return badInput("{} {}: cannot read {} bytes at byte {}: {}", what_, path_.string(), bytes, offset,
+                      got < 0 ? std::strerror(errno) : "the file ends there");
+    to += got;
+    offset += static_cast<std::uint64_t>(got);
+    bytes -= static_cast<std::size_t>(got);
+  }
+  return okStatus();
+}
+
+Status RawFile::sync() const {
+  if (::fsync(fd_) != 0) return internalError("writing {} {}: {}", what_, path_.string(), std::strerror(errno));
+  return okStatus();
+}
+
 Status writeFileAtomically(const fs::path& path,
                            const std::function<Status(std::ostream&)>& writeBody) {
   std::error_code ec;

@@ -47,6 +47,36 @@ class MappedFile {
   std::size_t size_;
 };
 
+// A file read and written at byte offsets (pread, pwrite), closed when it
+// goes. Errors name `what` the file is ("the point store"), its path and the
+// byte; a write that fails for a full disk says so (ENOSPC's message).
+class RawFile {
+ public:
+  RawFile(std::string what, const std::filesystem::path& path, int flags);  // open(2) flags; created 0644
+  // A file of no name in `folder` (made, then unlinked at once): its space
+  // comes back when it is closed, even if the process is killed.
+  static Result<RawFile> scratch(std::string what, const std::filesystem::path& folder);
+  RawFile(RawFile&& other) noexcept;
+  RawFile& operator=(RawFile&&) = delete;
+  RawFile(const RawFile&) = delete;
+  RawFile& operator=(const RawFile&) = delete;
+  ~RawFile();
+
+  Status opened() const;
+  Status write(std::uint64_t offset, const void* data, std::size_t bytes) const;
+  Status read(std::uint64_t offset, void* data, std::size_t bytes) const;
+  // Flushed to disk: a full disk may only show here.
+  Status sync() const;
+
+ private:
+  RawFile(std::string what, std::filesystem::path path, int fd, int error)
+      : what_(std::move(what)), path_(std::move(path)), fd_(fd), openError_(error) {}
+  std::string what_;
+  std::filesystem::path path_;
+  int fd_;
+  int openError_;  // errno of a failed open
+};
+
 // Checks that `path` names a readable regular file without reading it.
 Status checkReadableFile(const std::filesystem::path& path);
 

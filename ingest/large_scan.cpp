@@ -1,13 +1,17 @@
 #include "ingest/large_scan.h"
 
 #include "core/file_io.h"
+#include "ingest/lzf_blocks.h"
 #include "ingest/parse_util.h"
 #include "ingest/positions.h"
+
+#include <fmt/format.h>
 
 #include <algorithm>
 #include <array>
 #include <bit>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <numeric>
 #include <utility>
@@ -314,8 +318,93 @@ PointRuns e57Runs(const fs::path& path, std::uint64_t count) {
                     });
 }
 
-// Bytes of a text file read at a time.
+// Bytes of a text file read at a time, and of a compressed PCD's body
+// decoded at a time.
 constexpr std::size_t kTextBlock = std::size_t{16} << 20;
+
+// Each field's start in a compressed PCD's decoded body (every point's values
+// of one field, then of the next; padding left out).
+std::vector<std::uint64_t> fieldStarts(const readers::PcdCompressedLayout& layout) {
+  std::vector<std::uint64_t> starts;
+  std::uint64_t at = 0;
+  for (const readers::PcdCompressedLayout::Block& field : layout.fields) {
+    starts.push_back(at);
+    if (!field.padding) at += layout.count * field.pointBytes;
+  }
+  return starts;
+}
+
+// Points [first, first + count) of a decoded body as the binary twin's
+// records, padding zero.
+Status gatherRecords(const RawFile& decoded, const readers::PcdCompressedLayout& layout,
+                     const std::vector<std::uint64_t>& starts, std::uint64_t first, std::uint64_t count,
+                     std::string& records, std::string& values) {
+  const std::uint64_t recordBytes = layout.binary.recordBytes;
+  records.assign(static_cast<std::size_t>(count * recordBytes), '\0');
+  for (std::size_t f = 0; f < layout.fields.size(); ++f) {
+    const readers::PcdCompressedLayout::Block& field = layout.fields[f];
+    if (field.padding) continue;
+    values.resize(static_cast<std::size_t>(count * field.pointBytes));
+    APO_RETURN_IF_ERROR(decoded.read(starts[f] + first * field.pointBytes, values.data(), values.size()));
+    for (std::uint64_t i = 0; i < count; ++i)
+      std::memcpy(records.data() + i * recordBytes + field.recordOffset, values.data() + i * field.pointBytes,
+                  field.pointBytes);
+  }
+  return okStatus();
+}
+
+// A binary_compressed PCD of one row: its LZF body decoded through, 16 MiB
+// at a time, into a scratch file of no name in TMPDIR (its decoded size: at
+// most 4 GiB, the format's sizes being 32-bit), then runs of points gathered
+// from its fields into the binary twin's records, each read as a binary
+// PCD's records are.
+PointRuns compressedPcdRuns(const fs::path& path, readers::PcdCompressedLayout layout) {
+  const std::uint64_t count = layout.count;
+  auto read = [path, layout = std::move(layout)](
+                  std::uint64_t runPoints, const std::function<void(Scan&)>& take) -> Result<std::vector<std::string>> {
+    auto file = MappedFile::open(path);
+    if (!file) return file.error();
+    std::error_code noTemp;
+    const fs::path temp = fs::temp_directory_path(noTemp);
+    if (noTemp) return internalError("no folder for the decoded body of {}: {}", path.string(), noTemp.message());
+    auto decoded = RawFile::scratch(fmt::format("the decoded body of {}", path.string()), temp);
+    if (!decoded) return decoded.error();
+    const std::string_view bytes = file->bytes();
+    std::vector<std::string> notes;
+    try {
+      const readers::PcdCompressedStream stream =
+          readers::pcdCompressedStream(bytes.substr(layout.sizesAt), layout, bytes.size());
+      Status written = okStatus();
+      std::uint64_t at = 0;
+      lzf::decodeBlocks(bytes.substr(layout.sizesAt + 8, stream.compressedBytes), stream.decodedBytes,
+                        layout.sizesAt + 8, kTextBlock, [&](std::string_view block) {
+                          if (written.ok()) written = decoded->write(at, block.data(), block.size());
+                          at += block.size();
+                          file->release(bytes.size());
+                        });
+      APO_RETURN_IF_ERROR(written);
+      const std::vector<std::uint64_t> starts = fieldStarts(layout);
+      std::string records, values;
+      for (std::uint64_t first = 0; first < layout.count; first += runPoints) {
+        const std::uint64_t points = std::min(runPoints, layout.count - first);
+        APO_RETURN_IF_ERROR(gatherRecords(*decoded, layout, starts, first, points, records, values));
+        Scan run;
+        try {
+          run = readers::readPcdRecords(layout.binaryHead, records, layout.binary);
+        } catch (const parse::ParseFailure& failure) {
+          return badInput("{}: points {} to {}: {}", path.string(), first + 1, first + points, failure.what());
+        }
+        if (first == 0) notes = run.readNotes;
+        take(run);
+      }
+    } catch (const parse::ParseFailure& failure) {
+      return badInput("{}: {}", path.string(), failure.what());
+    }
+    notes.insert(notes.begin(), "binary_compressed: its LZF body decoded through a scratch file, a run at a time");
+    return notes;
+  };
+  return {path, count, std::move(read)};
+}
 
 // The file's lines from byte `from` on, each with its terminator (\n, \r\n
 // or \r, as parse::TextCursor ends lines; the last may have none), handed to
@@ -479,6 +568,9 @@ Result<std::optional<PointRuns>> openPointRuns(const fs::path& path, ScanFormat 
   if (!records) return openTextRuns(path, std::move(*head), *text, maxPoints);
   if (format == ScanFormat::Las)
     if (const auto count = readers::lazPointCount(*head)) return std::optional<PointRuns>(lazRuns(path, *count));
+  if (format == ScanFormat::Pcd)
+    if (auto compressed = readers::pcdCompressedLayout(*head))
+      return std::optional<PointRuns>(compressedPcdRuns(path, std::move(*compressed)));
   const auto layout = records->layout(*head);
   if (text && !layout) return openTextRuns(path, std::move(*head), *text, maxPoints);
   if (!layout || layout->recordBytes == 0) return std::optional<PointRuns>();

@@ -646,9 +646,10 @@ void finishScan(const Header& header, Body& body, Scan& scan) {
   if (header.viewpoint) scan.viewpoint = inLocalFrame(*header.viewpoint, scan.origin);
 }
 
-// The header with the grid and the count of one row of `count` points:
-// WIDTH and POINTS set to it, HEIGHT to 1, every other line as it was.
-std::string headerWithPointCount(std::string_view header, std::uint64_t count) {
+// The header with each line given by `rewrite(keyword, line)`, or kept as it
+// was where that returns nullopt.
+template <class Rewrite>
+std::string rewrittenHeader(std::string_view header, const Rewrite& rewrite) {
   std::string rewritten;
   std::vector<std::string_view> tokens;
   for (std::size_t at = 0; at < header.size();) {
@@ -656,16 +657,29 @@ std::string headerWithPointCount(std::string_view header, std::uint64_t count) {
     const std::size_t end = newline == std::string_view::npos ? header.size() : newline + 1;
     const std::string_view line = header.substr(at, end - at);
     parse::splitWhitespace(line, tokens);
-    const std::string_view keyword = tokens.empty() ? std::string_view() : tokens.front();
-    if (keyword == "WIDTH" || keyword == "POINTS")
-      rewritten += std::string(keyword) + " " + std::to_string(count) + "\n";
-    else if (keyword == "HEIGHT")
-      rewritten += "HEIGHT 1\n";
-    else
-      rewritten += line;
+    const std::optional<std::string> replaced = rewrite(tokens.empty() ? std::string_view() : tokens.front());
+    rewritten += replaced ? std::string_view(*replaced) : line;
     at = end;
   }
   return rewritten;
+}
+
+// The header with the grid and the count of one row of `count` points:
+// WIDTH and POINTS set to it, HEIGHT to 1, every other line as it was.
+std::string headerWithPointCount(std::string_view header, std::uint64_t count) {
+  return rewrittenHeader(header, [&](std::string_view keyword) -> std::optional<std::string> {
+    if (keyword == "WIDTH" || keyword == "POINTS") return std::string(keyword) + " " + std::to_string(count) + "\n";
+    if (keyword == "HEIGHT") return "HEIGHT 1\n";
+    return std::nullopt;
+  });
+}
+
+// The header with its DATA line set to `encoding`, every other line as it was.
+std::string headerWithEncoding(std::string_view header, std::string_view encoding) {
+  return rewrittenHeader(header, [&](std::string_view keyword) -> std::optional<std::string> {
+    if (keyword == "DATA") return "DATA " + std::string(encoding) + "\n";
+    return std::nullopt;
+  });
 }
 
 // The header of a PCD of one row, and the cursor just after it; nullopt when
@@ -684,6 +698,41 @@ std::optional<std::pair<Header, parse::TextCursor>> oneRowHeader(std::string_vie
 }
 
 }  // namespace
+
+std::optional<PcdCompressedLayout> pcdCompressedLayout(std::string_view head) {
+  const auto found = oneRowHeader(head);
+  if (!found || found->first.encoding != Encoding::BinaryCompressed) return std::nullopt;
+  const auto& [header, cursor] = *found;
+  PcdCompressedLayout layout;
+  layout.count = header.points;
+  layout.sizesAt = cursor.offset();
+  std::uint64_t recordOffset = 0;
+  for (const Field& field : header.fields) {
+    layout.fields.push_back({field.size * field.count, recordOffset, field.isPadding()});
+    recordOffset += field.size * field.count;
+  }
+  layout.binaryHead = headerWithEncoding(head.substr(0, cursor.offset()), "binary");
+  layout.binary = RecordLayout{header.points, layout.binaryHead.size(), header.recordSize};
+  return layout;
+}
+
+PcdCompressedStream pcdCompressedStream(std::string_view sizes, const PcdCompressedLayout& layout,
+                                        std::uint64_t fileBytes) {
+  const std::uint64_t at = layout.sizesAt;
+  if (sizes.size() < 8) fail("byte {}: the file ends inside the compressed body's sizes", at);
+  std::uint32_t compressedSize = 0, uncompressedSize = 0;
+  std::memcpy(&compressedSize, sizes.data(), 4);
+  std::memcpy(&uncompressedSize, sizes.data() + 4, 4);
+  if (compressedSize > fileBytes - at - 8)
+    fail("byte {}: compressed size {} runs past the end of the file ({} bytes left)", at, compressedSize,
+         fileBytes - at - 8);
+  std::uint64_t packed = 0;
+  for (const PcdCompressedLayout::Block& field : layout.fields) packed += field.padding ? 0 : field.pointBytes;
+  if (product(layout.count, packed) != uncompressedSize)
+    fail("byte {}: uncompressed size {} does not match POINTS {} x {} bytes per point", at + 4, uncompressedSize,
+         layout.count, packed);
+  return {compressedSize, uncompressedSize};
+}
 
 std::optional<RecordLayout> pcdRecordLayout(std::string_view head) {
   const auto found = oneRowHeader(head);

@@ -93,58 +93,6 @@ bool insideBox(const Vec3f& p, const Aabb& box) {
   return (p.array() >= box.min.array()).all() && (p.array() <= box.max.array()).all();
 }
 
-// A file written and read at offsets.
-class RawFile {
- public:
-  RawFile(const fs::path& path, int flags) : path_(path), fd_(::open(path.c_str(), flags | O_CLOEXEC, 0644)) {}
-  RawFile(const RawFile&) = delete;
-  RawFile& operator=(const RawFile&) = delete;
-  ~RawFile() {
-    if (fd_ >= 0) ::close(fd_);
-  }
-  Status opened() const {
-    if (fd_ < 0) return internalError("{}: cannot open: {}", path_.string(), std::strerror(errno));
-    return okStatus();
-  }
-  Status write(std::uint64_t offset, const void* data, std::size_t bytes) const {
-    const char* from = static_cast<const char*>(data);
-    while (bytes > 0) {
-      const ssize_t written = ::pwrite(fd_, from, bytes, static_cast<off_t>(offset));
-      if (written < 0 && errno == EINTR) continue;
-      if (written <= 0)
-        return internalError("writing the point store {} at byte {}: {}", path_.string(), offset,
-                             written < 0 ? std::strerror(errno) : "nothing written");
-      from += written;
-      offset += static_cast<std::uint64_t>(written);
-      bytes -= static_cast<std::size_t>(written);
-    }
-    return okStatus();
-  }
-  Status read(std::uint64_t offset, void* data, std::size_t bytes) const {
-    char* to = static_cast<char*>(data);
-    while (bytes > 0) {
-      const ssize_t got = ::pread(fd_, to, bytes, static_cast<off_t>(offset));
-      if (got < 0 && errno == EINTR) continue;
-      if (got <= 0)
-        return badInput("{}: cannot read {} bytes at byte {}: {}", path_.string(), bytes, offset,
-                        got < 0 ? std::strerror(errno) : "the file ends there");
-      to += got;
-      offset += static_cast<std::uint64_t>(got);
-      bytes -= static_cast<std::size_t>(got);
-    }
-    return okStatus();
-  }
-  // Flushed to disk: a full disk may only show here.
-  Status sync() const {
-    if (::fsync(fd_) != 0) return internalError("writing the point store {}: {}", path_.string(), std::strerror(errno));
-    return okStatus();
-  }
-
- private:
-  fs::path path_;
-  int fd_;
-};
-
 // The file's points, a run at a time, in `oriented`'s local frame; the
 // non-finite ones counted and left out.
 Status forEachRun(const large_scan::PointRuns& file, const std::array<double, 3>& origin, std::uint64_t& nonFinite,
@@ -201,7 +149,7 @@ Status sortIntoCells(const large_scan::PointRuns& file, const std::array<double,
   report.points = cellBegin.back();
   for (std::size_t c = 0; c + 1 < cellBegin.size(); ++c) report.occupiedCells += cellBegin[c + 1] > cellBegin[c] ? 1 : 0;
 
-  const RawFile positions(folder / kPositions, O_WRONLY | O_CREAT | O_TRUNC);
+  const RawFile positions("the point store", folder / kPositions, O_WRONLY | O_CREAT | O_TRUNC);
   APO_RETURN_IF_ERROR(positions.opened());
   std::vector<std::uint64_t> cursor(cellBegin.begin(), cellBegin.end() - 1);
   std::vector<std::uint32_t> order;
@@ -238,9 +186,9 @@ Status sortIntoCells(const large_scan::PointRuns& file, const std::array<double,
 // Pass 3: each cell's normals, from its points and those in a band around it.
 Status normalsByCell(const Grid& grid, const std::vector<std::uint64_t>& cellBegin, const Scan& oriented, int k,
                      const fs::path& folder, PointStoreReport& report, const ProgressCallback& progress) {
-  const RawFile positions(folder / kPositions, O_RDONLY);
+  const RawFile positions("the point store", folder / kPositions, O_RDONLY);
   APO_RETURN_IF_ERROR(positions.opened());
-  const RawFile normals(folder / kNormals, O_WRONLY | O_CREAT | O_TRUNC);
+  const RawFile normals("the point store", folder / kNormals, O_WRONLY | O_CREAT | O_TRUNC);
   APO_RETURN_IF_ERROR(normals.opened());
   auto guide = makeFlannClosestPoint(oriented);
   if (!guide) return guide.error();
@@ -355,7 +303,7 @@ Result<PointStore> PointStore::open(const fs::path& folder) {
       return badInput("{}: the store's files disagree with store.json ({} points, {} cells)", folder.string(),
                       store.count_, cells);
     store.cellBegin_.resize(cells + 1);
-    const RawFile index(folder / kCells, O_RDONLY);
+    const RawFile index("the point store", folder / kCells, O_RDONLY);
     APO_RETURN_IF_ERROR(index.opened());
     APO_RETURN_IF_ERROR(index.read(0, store.cellBegin_.data(), store.cellBegin_.size() * sizeof(std::uint64_t)));
     if (store.cellBegin_.front() != 0 || store.cellBegin_.back() != store.count_ ||
@@ -381,9 +329,9 @@ Result<PointSet> PointStore::pointsIn(const Aabb& box) const {
     low[axis] = grid.along(box.min[axis], axis);
     high[axis] = grid.along(box.max[axis], axis);
   }
-  const RawFile positions(folder_ / kPositions, O_RDONLY);
+  const RawFile positions("the point store", folder_ / kPositions, O_RDONLY);
   APO_RETURN_IF_ERROR(positions.opened());
-  const RawFile normals(folder_ / kNormals, O_RDONLY);
+  const RawFile normals("the point store", folder_ / kNormals, O_RDONLY);
   APO_RETURN_IF_ERROR(normals.opened());
   PointSet inside;
   std::vector<Vec3f> p, n;
@@ -442,7 +390,7 @@ Result<PointStore> writePointStore(const fs::path& scanPath, const Scan& oriente
                grid.side(), watch.seconds());
   APO_RETURN_IF_ERROR(normalsByCell(grid, cellBegin, oriented, k, folder, report, progress));
   {
-    const RawFile index(folder / kCells, O_WRONLY | O_CREAT | O_TRUNC);
+    const RawFile index("the point store", folder / kCells, O_WRONLY | O_CREAT | O_TRUNC);
     APO_RETURN_IF_ERROR(index.opened());
     APO_RETURN_IF_ERROR(index.write(0, cellBegin.data(), cellBegin.size() * sizeof(std::uint64_t)));
     APO_RETURN_IF_ERROR(index.sync());

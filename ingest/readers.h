@@ -10,6 +10,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace apo::readers {
 
@@ -62,6 +63,34 @@ std::optional<RecordLayout> pcdRecordLayout(std::string_view head);
 Scan readPlyRecords(std::string_view head, std::string_view records, const RecordLayout& layout);
 Scan readLasRecords(std::string_view head, std::string_view records, const RecordLayout& layout);
 Scan readPcdRecords(std::string_view head, std::string_view records, const RecordLayout& layout);
+// binary_compressed PCDs of one row, read a run at a time: their body is two
+// sizes (compressed, uncompressed) and an LZF stream that decodes to the
+// points field by field (every point's x, then every point's y, ...;
+// padding fields left out). Runs of points gathered from the decoded fields
+// into records are read as readPcdRecords reads the binary twin's.
+struct PcdCompressedLayout {
+  struct Block {
+    std::uint64_t pointBytes = 0;    // one point's bytes of the field (size x count)
+    std::uint64_t recordOffset = 0;  // where they sit in a binary record
+    bool padding = false;            // not in the decoded body (zeros in records)
+  };
+  std::uint64_t count = 0;         // points
+  std::uint64_t sizesAt = 0;       // byte of the two sizes, right after the header
+  std::vector<Block> fields;       // in the header's order, the decoded body's
+  RecordLayout binary;             // of the binary twin: its records' size, its header's length
+  std::string binaryHead;          // the twin's header: the same but DATA binary
+};
+// nullopt when the head does not hold such a header (the whole read says why).
+std::optional<PcdCompressedLayout> pcdCompressedLayout(std::string_view head);
+// The two sizes behind the header (`sizes` starts at layout.sizesAt),
+// checked against the header and the file's `fileBytes`. Throws
+// parse::ParseFailure as readPcd does.
+struct PcdCompressedStream {
+  std::uint64_t compressedBytes = 0;  // the LZF stream's, from layout.sizesAt + 8
+  std::uint64_t decodedBytes = 0;     // what it decodes to: every field of every point
+};
+PcdCompressedStream pcdCompressedStream(std::string_view sizes, const PcdCompressedLayout& layout,
+                                        std::uint64_t fileBytes);
 // LAZ files, whose records are decompressed a run of chunks at a time: the
 // header's count from the file's first bytes (nullopt when it is not LAZ or
 // the header does not read: the whole file's read then says why), and the
