@@ -373,8 +373,9 @@ Result<PointStore> writePointStore(const fs::path& scanPath, const Scan& oriente
   auto file = large_scan::openPointRuns(scanPath, *format, 0);
   if (!file) return file.error();
   if (!*file)
-    return badInput("{}: a point store reads PLY of vertices alone, PCD of one row, LAS, LAZ or XYZ/CSV/PTS files",
-                    scanPath.string());
+    return badInput(
+        "{}: a point store reads PLY of vertices alone, PCD of one row, LAS, LAZ, E57 or XYZ/CSV/PTS files",
+        scanPath.string());
   std::error_code error;
   fs::remove(folder / kManifest, error);  // the store is incomplete from here on
   fs::create_directories(folder, error);
