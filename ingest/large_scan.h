@@ -48,7 +48,9 @@ struct PointRuns {
 // more than `maxPoints` points (its data lines counted in a first pass): runs
 // of whole lines, each read behind the file's head (readers.h, TextLayout);
 // E57 (mapped, read twice through: readers::readE57Runs; `count` is the
-// records its XML declares, valid or not); else nullopt.
+// records its XML declares, valid or not); binary_compressed PCD of one row
+// (its body decoded through a scratch file in TMPDIR, runs gathered from its
+// fields); else nullopt.
 Result<std::optional<PointRuns>> openPointRuns(const std::filesystem::path& path, ScanFormat format,
                                                std::uint64_t maxPoints);
 

@@ -579,21 +579,21 @@ void readBinaryBody(std::string_view bytes, std::size_t offset, const Header& he
   decodeRecords(views, header, out);
 }
 
-// Refuses sizes that do not fit the header or the file, before allocating.
-void checkCompressedSizes(const parse::BinaryCursor& in, std::uint32_t compressedSize, std::uint32_t uncompressedSize,
-                          std::size_t fileSize, const Header& header) {
-  if (compressedSize > in.remaining())
-    fail("byte {}: compressed size {} runs past the end of the file ({} bytes left)", in.offset() - 8,
-         compressedSize, in.remaining());
-  const std::optional<std::uint64_t> expected = product(header.points, header.packedRecordSize);
-  if (expected != uncompressedSize)
-    fail("byte {}: uncompressed size {} does not match POINTS {} x {} bytes per point", in.offset() - 4,
-         uncompressedSize, header.points, header.packedRecordSize);
+// Refuses the two sizes at byte `at` where they do not fit the header's
+// `points` of `packed` bytes or the file, before anything is allocated.
+void checkCompressedSizes(std::uint64_t at, std::uint32_t compressedSize, std::uint32_t uncompressedSize,
+                          std::uint64_t fileSize, std::uint64_t points, std::uint64_t packed) {
+  const std::uint64_t left = fileSize - at - 8;
+  if (compressedSize > left)
+    fail("byte {}: compressed size {} runs past the end of the file ({} bytes left)", at, compressedSize, left);
+  if (product(points, packed) != uncompressedSize)
+    fail("byte {}: uncompressed size {} does not match POINTS {} x {} bytes per point", at + 4, uncompressedSize,
+         points, packed);
   // LZF expands data at most ~100 times in practice; a header claiming much
   // more than that describes a file that was cut or forged.
   constexpr std::uint64_t kMaxExpansion = 64, kSlack = 1 << 20;
   if (uncompressedSize > kMaxExpansion * fileSize + kSlack)
-    fail("byte {}: uncompressed size {} is implausible for a file of {} bytes", in.offset() - 4, uncompressedSize,
+    fail("byte {}: uncompressed size {} is implausible for a file of {} bytes", at + 4, uncompressedSize,
          fileSize);
 }
 
@@ -609,7 +609,7 @@ void readCompressedBody(std::string_view bytes, std::size_t offset, const Header
   parse::BinaryCursor in(bytes, offset);
   const auto compressedSize = in.read<std::uint32_t>(false, "compressed size");
   const auto uncompressedSize = in.read<std::uint32_t>(false, "uncompressed size");
-  checkCompressedSizes(in, compressedSize, uncompressedSize, bytes.size(), header);
+  checkCompressedSizes(offset, compressedSize, uncompressedSize, bytes.size(), header.points, header.packedRecordSize);
   const std::vector<char> plain = decompressLzf(bytes.substr(in.offset(), compressedSize), uncompressedSize, in.offset());
 
   std::vector<FieldView> views;
@@ -723,14 +723,9 @@ PcdCompressedStream pcdCompressedStream(std::string_view sizes, const PcdCompres
   std::uint32_t compressedSize = 0, uncompressedSize = 0;
   std::memcpy(&compressedSize, sizes.data(), 4);
   std::memcpy(&uncompressedSize, sizes.data() + 4, 4);
-  if (compressedSize > fileBytes - at - 8)
-    fail("byte {}: compressed size {} runs past the end of the file ({} bytes left)", at, compressedSize,
-         fileBytes - at - 8);
   std::uint64_t packed = 0;
   for (const PcdCompressedLayout::Block& field : layout.fields) packed += field.padding ? 0 : field.pointBytes;
-  if (product(layout.count, packed) != uncompressedSize)
-    fail("byte {}: uncompressed size {} does not match POINTS {} x {} bytes per point", at + 4, uncompressedSize,
-         layout.count, packed);
+  checkCompressedSizes(at, compressedSize, uncompressedSize, fileBytes, layout.count, packed);
   return {compressedSize, uncompressedSize};
 }
 
