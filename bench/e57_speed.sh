@@ -19,7 +19,7 @@ echo "load before: $(uptime | sed 's/.*average: //'), $(du -m "$file" | cut -f1)
 printf '| round | points | read s | points/s |\n|---|---|---|---|\n'
 for round in $(seq "$rounds"); do
   out=$(mktemp -d)
-  build/apo -q ingest --no-normals --no-grid-mesh "$file" -o "$out"
+  build/apo -q ingest --no-normals --no-grid-mesh --max-scan-points 0 "$file" -o "$out"
   python3 -c 'import json,sys; j=json.load(open(sys.argv[1])); n=j["counts"]["points_in"]; s=j["seconds"]["read"]; print("| %s | %d | %.2f | %.1f M |" % (sys.argv[2], n, s, n / s / 1e6))' \
     "$out/ingest.json" "$round"
   rm -rf "$out"
